@@ -1,0 +1,526 @@
+//! Triangle surface meshes: validation and safe repair.
+
+use resound_core::geometry::{cross, dot, norm, sub};
+use std::collections::HashMap;
+
+/// A triangle mesh. Vertices in m; triangles index `vertices`.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SurfaceMesh {
+    /// Vertex positions (m).
+    pub vertices: Vec<[f64; 3]>,
+    /// Triangles (counter-clockwise seen from outside once repaired).
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Mesh problems that cannot be repaired safely.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum MeshError {
+    /// No triangles at all.
+    #[error("mesh is empty ({vertices} vertices, {triangles} triangles)")]
+    Empty {
+        /// Vertex count.
+        vertices: usize,
+        /// Triangle count.
+        triangles: usize,
+    },
+    /// A coordinate is NaN or infinite.
+    #[error("vertex {index} has a non-finite coordinate {value:?}")]
+    NonFiniteVertex {
+        /// Vertex index.
+        index: usize,
+        /// Its coordinates.
+        value: [f64; 3],
+    },
+    /// A triangle refers to a vertex that does not exist.
+    #[error(
+        "triangle {triangle} refers to vertex {vertex}, but the mesh has {n_vertices} vertices"
+    )]
+    BadIndex {
+        /// Triangle index.
+        triangle: usize,
+        /// Offending vertex index.
+        vertex: u32,
+        /// Number of vertices.
+        n_vertices: usize,
+    },
+    /// The surface has holes.
+    #[error("mesh has {loops} boundary loop(s) ({edges} boundary edges); not closed. Close the holes (or raise --max-hole-edges so small holes are filled; the largest has {largest} edges)")]
+    NotClosed {
+        /// Number of boundary loops.
+        loops: usize,
+        /// Number of boundary edges.
+        edges: usize,
+        /// Edges of the largest loop.
+        largest: usize,
+    },
+    /// Edges shared by more than two triangles.
+    #[error("mesh is non-manifold: {count} edge(s) are shared by more than two triangles (e.g. between vertices {example:?})")]
+    NonManifold {
+        /// Number of such edges.
+        count: usize,
+        /// One example edge (vertex indices).
+        example: [u32; 2],
+    },
+    /// Orientation cannot be made consistent (e.g. a Möbius strip).
+    #[error("mesh is not orientable: triangles cannot be given a consistent orientation")]
+    NotOrientable,
+    /// The enclosed volume is (numerically) zero.
+    #[error("mesh encloses no volume ({volume:.3e} m^3 for a bounding box of {bbox:.3e} m^3): flat or degenerate")]
+    ZeroVolume {
+        /// Signed volume (m³).
+        volume: f64,
+        /// Bounding-box volume (m³).
+        bbox: f64,
+    },
+}
+
+/// What [`SurfaceMesh::repaired`] changed.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RepairReport {
+    /// Vertices merged into an identical earlier one.
+    pub welded_vertices: usize,
+    /// Zero-area or repeated-vertex triangles removed.
+    pub degenerate_triangles: usize,
+    /// Duplicate triangles removed.
+    pub duplicate_triangles: usize,
+    /// Triangles flipped to make orientation consistent and outward.
+    pub flipped_triangles: usize,
+    /// Holes (boundary loops) closed by a fan around their centroid.
+    pub filled_holes: usize,
+}
+
+impl RepairReport {
+    /// True when nothing was changed.
+    pub fn is_clean(&self) -> bool {
+        *self == RepairReport::default()
+    }
+
+    /// One line per repair, for users.
+    pub fn lines(&self) -> Vec<String> {
+        let mut v = Vec::new();
+        let mut push = |n: usize, what: &str| {
+            if n > 0 {
+                v.push(format!("{n} {what}"));
+            }
+        };
+        push(self.welded_vertices, "duplicate vertices welded");
+        push(self.degenerate_triangles, "degenerate triangles removed");
+        push(self.duplicate_triangles, "duplicate triangles removed");
+        push(
+            self.flipped_triangles,
+            "triangles flipped for consistent outward orientation",
+        );
+        push(self.filled_holes, "small holes filled");
+        v
+    }
+}
+
+impl SurfaceMesh {
+    /// Axis-aligned bounding box (min, max) in m. Zeros for an empty mesh.
+    pub fn bbox(&self) -> ([f64; 3], [f64; 3]) {
+        if self.vertices.is_empty() {
+            return ([0.0; 3], [0.0; 3]);
+        }
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for v in &self.vertices {
+            for c in 0..3 {
+                lo[c] = lo[c].min(v[c]);
+                hi[c] = hi[c].max(v[c]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Length of the bounding-box diagonal (m).
+    pub fn diagonal(&self) -> f64 {
+        let (lo, hi) = self.bbox();
+        norm(sub(hi, lo))
+    }
+
+    /// Signed enclosed volume (m³) by the divergence theorem; positive for outward orientation.
+    pub fn signed_volume(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+                dot(a, cross(b, c)) / 6.0
+            })
+            .sum()
+    }
+
+    /// Multiplies all coordinates by `s` (e.g. 0.001 for a file in mm).
+    pub fn scale(&mut self, s: f64) {
+        for v in &mut self.vertices {
+            for x in v.iter_mut() {
+                *x *= s;
+            }
+        }
+    }
+
+    /// Checks indices and coordinates.
+    ///
+    /// # Errors
+    /// [`MeshError::Empty`], [`MeshError::NonFiniteVertex`], [`MeshError::BadIndex`].
+    pub fn check_basic(&self) -> Result<(), MeshError> {
+        if self.triangles.is_empty() || self.vertices.len() < 3 {
+            return Err(MeshError::Empty {
+                vertices: self.vertices.len(),
+                triangles: self.triangles.len(),
+            });
+        }
+        if let Some((index, v)) = self
+            .vertices
+            .iter()
+            .enumerate()
+            .find(|(_, v)| v.iter().any(|x| !x.is_finite()))
+        {
+            return Err(MeshError::NonFiniteVertex { index, value: *v });
+        }
+        let n = self.vertices.len();
+        for (t, tri) in self.triangles.iter().enumerate() {
+            if let Some(&v) = tri.iter().find(|&&v| v as usize >= n) {
+                return Err(MeshError::BadIndex {
+                    triangle: t,
+                    vertex: v,
+                    n_vertices: n,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// A closed, manifold, consistently outward-oriented copy of the mesh, and what was repaired.
+    ///
+    /// Safe repairs: welding coincident vertices (within 1e-9 of the bounding-box diagonal —
+    /// STL files repeat every vertex), dropping degenerate and duplicate triangles, flipping
+    /// triangles to a consistent outward orientation, and filling holes whose boundary loop has
+    /// at most `max_hole_edges` edges by a fan around the loop centroid (0 disables filling).
+    ///
+    /// # Errors
+    /// [`MeshError`] naming the first problem that cannot be repaired safely: holes larger than
+    /// allowed, non-manifold edges, a non-orientable surface, zero enclosed volume.
+    pub fn repaired(
+        &self,
+        max_hole_edges: usize,
+    ) -> Result<(SurfaceMesh, RepairReport), MeshError> {
+        self.check_basic()?;
+        let mut report = RepairReport::default();
+        let diag = self.diagonal();
+        // 1. Weld coincident vertices.
+        let tol = (diag * 1e-9).max(f64::MIN_POSITIVE);
+        let mut map = Vec::with_capacity(self.vertices.len());
+        let mut cells: HashMap<[i64; 3], u32> = HashMap::new();
+        let mut verts: Vec<[f64; 3]> = Vec::new();
+        for v in &self.vertices {
+            let key = v.map(|x| (x / tol).round() as i64);
+            let id = *cells.entry(key).or_insert_with(|| {
+                verts.push(*v);
+                (verts.len() - 1) as u32
+            });
+            map.push(id);
+        }
+        report.welded_vertices = self.vertices.len() - verts.len();
+        // 2. Degenerate and duplicate triangles.
+        let area_tol = diag * diag * 1e-14;
+        let mut seen = HashMap::new();
+        let mut tris = Vec::with_capacity(self.triangles.len());
+        for t in &self.triangles {
+            let t = t.map(|i| map[i as usize]);
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                report.degenerate_triangles += 1;
+                continue;
+            }
+            let [a, b, c] = t.map(|i| verts[i as usize]);
+            if norm(cross(sub(b, a), sub(c, a))) <= area_tol {
+                report.degenerate_triangles += 1;
+                continue;
+            }
+            let mut key = t;
+            key.sort_unstable();
+            if seen.insert(key, ()).is_some() {
+                report.duplicate_triangles += 1;
+                continue;
+            }
+            tris.push(t);
+        }
+        let mut mesh = SurfaceMesh {
+            vertices: verts,
+            triangles: tris,
+        };
+        if mesh.triangles.is_empty() {
+            return Err(MeshError::Empty {
+                vertices: mesh.vertices.len(),
+                triangles: 0,
+            });
+        }
+        // 3. Manifoldness and holes.
+        mesh.check_manifold()?;
+        let loops = mesh.boundary_loops();
+        if !loops.is_empty() {
+            let largest = loops.iter().map(Vec::len).max().unwrap_or(0);
+            if largest > max_hole_edges {
+                return Err(MeshError::NotClosed {
+                    loops: loops.len(),
+                    edges: loops.iter().map(Vec::len).sum(),
+                    largest,
+                });
+            }
+            for lp in &loops {
+                mesh.fill_hole(lp);
+            }
+            report.filled_holes = loops.len();
+            mesh.check_manifold()?;
+            if !mesh.boundary_loops().is_empty() {
+                return Err(MeshError::NotClosed {
+                    loops: loops.len(),
+                    edges: loops.iter().map(Vec::len).sum(),
+                    largest,
+                });
+            }
+        }
+        // 4. Orientation.
+        report.flipped_triangles = mesh.orient_outward()?;
+        let vol = mesh.signed_volume();
+        let (lo, hi) = mesh.bbox();
+        let bbox = (hi[0] - lo[0]) * (hi[1] - lo[1]) * (hi[2] - lo[2]);
+        if !(vol > 1e-9 * bbox) || bbox <= 0.0 {
+            return Err(MeshError::ZeroVolume { volume: vol, bbox });
+        }
+        Ok((mesh, report))
+    }
+
+    /// Undirected edge → number of incident triangles.
+    fn edge_counts(&self) -> HashMap<[u32; 2], u32> {
+        let mut m = HashMap::with_capacity(self.triangles.len() * 3 / 2);
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *m.entry([a.min(b), a.max(b)]).or_insert(0) += 1;
+            }
+        }
+        m
+    }
+
+    fn check_manifold(&self) -> Result<(), MeshError> {
+        let counts = self.edge_counts();
+        let bad: Vec<_> = counts.iter().filter(|(_, &c)| c > 2).collect();
+        if let Some((e, _)) = bad.iter().min_by_key(|(e, _)| **e) {
+            return Err(MeshError::NonManifold {
+                count: bad.len(),
+                example: **e,
+            });
+        }
+        Ok(())
+    }
+
+    /// Boundary loops as vertex sequences (each edge used by exactly one triangle).
+    pub fn boundary_loops(&self) -> Vec<Vec<u32>> {
+        let counts = self.edge_counts();
+        // Directed boundary edges in triangle order: next[a] = b.
+        let mut next: HashMap<u32, Vec<u32>> = HashMap::new();
+        for t in &self.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                if counts[&[a.min(b), a.max(b)]] == 1 {
+                    // Walk the hole in the opposite direction so filling keeps orientation.
+                    next.entry(b).or_default().push(a);
+                }
+            }
+        }
+        let mut loops = Vec::new();
+        let mut starts: Vec<u32> = next.keys().copied().collect();
+        starts.sort_unstable();
+        for s in starts {
+            while let Some(mut cur) = next.get_mut(&s).and_then(Vec::pop) {
+                let mut lp = vec![s];
+                while cur != s {
+                    lp.push(cur);
+                    match next.get_mut(&cur).and_then(Vec::pop) {
+                        Some(n) => cur = n,
+                        None => break,
+                    }
+                }
+                loops.push(lp);
+            }
+        }
+        loops
+    }
+
+    fn fill_hole(&mut self, lp: &[u32]) {
+        let n = lp.len();
+        if n < 3 {
+            return;
+        }
+        if n == 3 {
+            self.triangles.push([lp[0], lp[1], lp[2]]);
+            return;
+        }
+        let mut c = [0.0; 3];
+        for &v in lp {
+            for k in 0..3 {
+                c[k] += self.vertices[v as usize][k] / n as f64;
+            }
+        }
+        self.vertices.push(c);
+        let ci = (self.vertices.len() - 1) as u32;
+        for k in 0..n {
+            self.triangles.push([lp[k], lp[(k + 1) % n], ci]);
+        }
+    }
+
+    /// Makes orientation consistent within each connected component (flood fill across
+    /// edges) and outward (positive signed volume per component). Returns the flip count.
+    fn orient_outward(&mut self) -> Result<usize, MeshError> {
+        let nt = self.triangles.len();
+        let mut edge_tris: HashMap<[u32; 2], Vec<usize>> = HashMap::new();
+        for (i, t) in self.triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                edge_tris.entry([a.min(b), a.max(b)]).or_default().push(i);
+            }
+        }
+        let mut state = vec![0u8; nt]; // 0 unvisited, 1 kept, 2 flipped
+        let mut flipped = 0;
+        for seed in 0..nt {
+            if state[seed] != 0 {
+                continue;
+            }
+            state[seed] = 1;
+            let mut comp = vec![seed];
+            let mut stack = vec![seed];
+            while let Some(i) = stack.pop() {
+                let t = self.oriented(i, state[i]);
+                for k in 0..3 {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    for &j in &edge_tris[&[a.min(b), a.max(b)]] {
+                        if j == i {
+                            continue;
+                        }
+                        // Neighbour must traverse the shared edge as b→a.
+                        let u = self.triangles[j];
+                        let same_dir = (0..3).any(|m| u[m] == a && u[(m + 1) % 3] == b);
+                        let want = if same_dir { 2 } else { 1 };
+                        if state[j] == 0 {
+                            state[j] = want;
+                            comp.push(j);
+                            stack.push(j);
+                        } else if state[j] != want {
+                            return Err(MeshError::NotOrientable);
+                        }
+                    }
+                }
+            }
+            let vol: f64 = comp
+                .iter()
+                .map(|&i| {
+                    let [a, b, c] = self
+                        .oriented(i, state[i])
+                        .map(|v| self.vertices[v as usize]);
+                    dot(a, cross(b, c))
+                })
+                .sum();
+            if vol < 0.0 {
+                for &i in &comp {
+                    state[i] = 3 - state[i];
+                }
+            }
+        }
+        for (i, s) in state.iter().enumerate() {
+            if *s == 2 {
+                let t = &mut self.triangles[i];
+                t.swap(1, 2);
+                flipped += 1;
+            }
+        }
+        Ok(flipped)
+    }
+
+    fn oriented(&self, i: usize, state: u8) -> [u32; 3] {
+        let t = self.triangles[i];
+        if state == 2 {
+            [t[0], t[2], t[1]]
+        } else {
+            t
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::primitive;
+
+    #[test]
+    fn clean_box_is_unchanged_and_has_right_volume() {
+        let b = primitive::bar([0.3, 0.02, 0.01]);
+        let (m, r) = b.repaired(0).unwrap();
+        assert!(r.is_clean(), "{r:?}");
+        assert!((m.signed_volume() - 0.3 * 0.02 * 0.01).abs() < 1e-15);
+    }
+
+    #[test]
+    fn flipped_and_split_box_is_repaired() {
+        let b = primitive::bar([1.0, 1.0, 1.0]);
+        // Unweld (as STL does), flip every triangle, and flip one back: inconsistent.
+        let mut soup = SurfaceMesh::default();
+        for (i, t) in b.triangles.iter().enumerate() {
+            let base = soup.vertices.len() as u32;
+            for &v in t {
+                soup.vertices.push(b.vertices[v as usize]);
+            }
+            soup.triangles.push(if i == 3 {
+                [base, base + 1, base + 2]
+            } else {
+                [base, base + 2, base + 1]
+            });
+        }
+        let (m, r) = soup.repaired(0).unwrap();
+        assert_eq!(r.welded_vertices, 36 - 8);
+        assert_eq!(r.flipped_triangles, 11);
+        assert!((m.signed_volume() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn holes_are_reported_or_filled() {
+        let mut b = primitive::bar([1.0, 1.0, 1.0]);
+        b.triangles.truncate(10); // remove one face (2 triangles): one loop of 4 edges
+        match b.repaired(0) {
+            Err(MeshError::NotClosed { loops, edges, .. }) => {
+                assert_eq!((loops, edges), (1, 4))
+            }
+            other => panic!("expected NotClosed, got {other:?}"),
+        }
+        let (m, r) = b.repaired(8).unwrap();
+        assert_eq!(r.filled_holes, 1);
+        assert!((m.signed_volume() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_meshes_get_named_errors() {
+        assert!(matches!(
+            SurfaceMesh::default().repaired(0),
+            Err(MeshError::Empty { .. })
+        ));
+        let mut b = primitive::bar([1.0, 1.0, 1.0]);
+        b.vertices[2][1] = f64::NAN;
+        assert!(matches!(
+            b.repaired(0),
+            Err(MeshError::NonFiniteVertex { index: 2, .. })
+        ));
+        // Flat: a closed box squashed to zero height.
+        let mut f = primitive::bar([1.0, 1.0, 1.0]);
+        for v in &mut f.vertices {
+            v[2] = 0.0;
+        }
+        assert!(f.repaired(0).is_err());
+        // Non-manifold: two boxes sharing one edge's triangles... a fin added on an edge.
+        let mut n = primitive::bar([1.0, 1.0, 1.0]);
+        let t0 = n.triangles[0];
+        n.vertices.push([5.0, 5.0, 5.0]);
+        let k = (n.vertices.len() - 1) as u32;
+        n.triangles.push([t0[0], t0[1], k]);
+        assert!(matches!(n.repaired(0), Err(MeshError::NonManifold { .. })));
+    }
+}

@@ -1,0 +1,555 @@
+//! Shift-invert Lanczos for K φ = λ M φ.
+//!
+//! With K − σM = Pᵀ L Lᵀ P (σ < 0 so the matrix is positive definite even with the rigid-body
+//! modes at λ = 0; fill-reducing P by AMD), the operator A = L⁻¹ P M Pᵀ L⁻ᵀ is symmetric and
+//! A y = θ y ⇔ K φ = λ M φ with φ = Pᵀ L⁻ᵀ y, λ = σ + 1/θ. The lowest λ are the largest θ, the
+//! ones Lanczos finds first. faer's thick-restart Lanczos (`partial_self_adjoint_eigen`) runs on
+//! A; only one factorization is needed. Every returned pair is checked by its true residual
+//! ‖Kφ − λMφ‖ / (λ‖Mφ‖), and with a cutoff the count below it is certified by Sylvester's
+//! inertia of K − λ_cut M (the number of negative pivots of its LDLᵀ factorization).
+
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::matrix_free::LinOp;
+use faer::prelude::*;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, supernodal::SupernodalLltRef, CholeskySymbolicParams,
+    SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::{SparseColMat, SparseColMatRef};
+use faer::{Conj, Par, Side};
+use resound_core::units;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// Errors of the eigen-solve.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ModalError {
+    /// K − σM could not be factorized.
+    #[error("K - sigma*M is not positive definite (sigma = {shift:.3e} rad^2/s^2): {detail}. Are there inverted elements or a negative material value?")]
+    NotPositiveDefinite {
+        /// The shift σ.
+        shift: f64,
+        /// faer's message.
+        detail: String,
+    },
+    /// Lanczos did not converge for all requested pairs.
+    #[error("eigen-solve converged {converged}/{requested} modes; max relative residual {max_residual:.2e} (tolerance {tolerance:.1e})")]
+    NoConvergence {
+        /// Pairs that converged.
+        converged: usize,
+        /// Pairs requested.
+        requested: usize,
+        /// Largest relative residual among the returned pairs.
+        max_residual: f64,
+        /// The tolerance.
+        tolerance: f64,
+    },
+    /// The inertia count disagrees with the modes found.
+    #[error("Sturm count: K - lambda*M has {sturm} eigenvalues below {freq_hz:.1} Hz but the solver returned {found}")]
+    CountMismatch {
+        /// Count from inertia.
+        sturm: usize,
+        /// Count found by Lanczos.
+        found: usize,
+        /// The frequency checked (Hz).
+        freq_hz: f64,
+    },
+    /// Nothing to solve.
+    #[error("empty problem: {0}")]
+    Empty(String),
+    /// An internal faer failure (allocation, symbolic analysis).
+    #[error("sparse factorization failed: {0}")]
+    Factorization(String),
+}
+
+/// Progress stages reported to the caller.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Stage {
+    /// Symbolic + numeric factorization started.
+    Factorizing,
+    /// Lanczos running; `applications` operator applications so far.
+    Lanczos {
+        /// Operator applications so far.
+        applications: usize,
+    },
+    /// Sturm count factorization.
+    SturmCheck,
+}
+
+/// Parameters of [`solve_generalized`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct EigenParams {
+    /// Number of lowest eigenpairs wanted (including rigid-body modes).
+    pub n_eigen: usize,
+    /// Shift σ < 0 (rad²/s²).
+    pub shift: f64,
+    /// Relative residual above which a pair counts as not converged.
+    pub tolerance: f64,
+    /// Maximum thick restarts.
+    pub max_restarts: usize,
+    /// Keep doubling the number of pairs until one exceeds this λ (rad²/s²) or `max_eigen`
+    /// is reached; then certify the count below it by inertia when `sturm_check` is set.
+    pub until_lambda: Option<f64>,
+    /// Cap on pairs when `until_lambda` is set.
+    pub max_eigen: usize,
+    /// Certify the count below `until_lambda` (or just above the last pair) by inertia.
+    pub sturm_check: bool,
+    /// Threads for factorization and solves.
+    pub par: Par,
+}
+
+impl Default for EigenParams {
+    fn default() -> Self {
+        EigenParams {
+            n_eigen: 26,
+            shift: -1.0,
+            tolerance: 1e-6,
+            max_restarts: 1000,
+            until_lambda: None,
+            max_eigen: 4000,
+            sturm_check: true,
+            par: Par::rayon(0),
+        }
+    }
+}
+
+/// What the solve did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EigenInfo {
+    /// DOFs.
+    pub dofs: usize,
+    /// Stored entries of K (both triangles).
+    pub nnz_k: usize,
+    /// Entries of the Cholesky factor L.
+    pub nnz_l: usize,
+    /// Factorization wall time (s).
+    pub factor_s: f64,
+    /// Lanczos wall time (s), including residual checks.
+    pub eigen_s: f64,
+    /// Sturm check wall time (s).
+    pub sturm_s: f64,
+    /// Operator applications (each: two triangular solves and one M product).
+    pub applications: usize,
+    /// Pairs Lanczos reported converged.
+    pub converged: usize,
+    /// Largest relative residual ‖Kφ − λMφ‖/(|λ|‖Mφ‖) over pairs with λ > 0.
+    pub max_rel_residual: f64,
+    /// Eigenvalue count below `sturm_lambda` from inertia, when checked.
+    pub sturm_count: Option<usize>,
+    /// λ (rad²/s²) at which the Sturm count was taken.
+    pub sturm_lambda: Option<f64>,
+    /// Lanczos rounds (more than one when the cutoff needed more pairs).
+    pub rounds: usize,
+    /// True when `max_eigen` stopped the search below the cutoff.
+    pub capped: bool,
+    /// The shift used.
+    pub shift: f64,
+}
+
+/// y = M x for a full symmetric CSC M (x and y of length n).
+pub fn sym_matvec(m: SparseColMatRef<'_, usize, f64>, x: &[f64], y: &mut [f64]) {
+    y.iter_mut().for_each(|v| *v = 0.0);
+    for j in 0..m.ncols() {
+        let xj = x[j];
+        if xj == 0.0 {
+            continue;
+        }
+        for (i, v) in m.row_idx_of_col(j).zip(m.val_of_col(j)) {
+            y[i] += v * xj;
+        }
+    }
+}
+
+struct ShiftInvert<'a> {
+    symbolic: &'a faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky<usize>,
+    l_values: &'a [f64],
+    fwd: Vec<usize>,
+    m: SparseColMatRef<'a, usize, f64>,
+    count: AtomicUsize,
+    progress: &'a (dyn Fn(Stage) + Sync),
+}
+
+impl std::fmt::Debug for ShiftInvert<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ShiftInvert")
+            .field("n", &self.fwd.len())
+            .finish()
+    }
+}
+
+impl ShiftInvert<'_> {
+    fn llt(&self) -> SupernodalLltRef<'_, usize, f64> {
+        SupernodalLltRef::new(self.symbolic, self.l_values)
+    }
+
+    fn scratch(&self, k: usize, par: Par) -> StackReq {
+        self.symbolic.solve_in_place_scratch::<f64>(k, par)
+    }
+
+    /// φ (original ordering) = Pᵀ L⁻ᵀ y, in place on a copy.
+    fn back_transform(&self, y: MatRef<'_, f64>, par: Par) -> Mat<f64> {
+        let n = y.nrows();
+        let mut w = y.to_owned();
+        let mut buf = MemBuffer::new(self.scratch(w.ncols(), par));
+        self.llt()
+            .l_transpose_solve_with_conj(Conj::No, w.as_mut(), par, MemStack::new(&mut buf));
+        let mut out = Mat::<f64>::zeros(n, y.ncols());
+        for c in 0..y.ncols() {
+            for i in 0..n {
+                out[(self.fwd[i], c)] = w[(i, c)];
+            }
+        }
+        out
+    }
+}
+
+impl LinOp<f64> for ShiftInvert<'_> {
+    fn apply_scratch(&self, rhs_ncols: usize, par: Par) -> StackReq {
+        self.scratch(rhs_ncols, par)
+    }
+    fn nrows(&self) -> usize {
+        self.fwd.len()
+    }
+    fn ncols(&self) -> usize {
+        self.fwd.len()
+    }
+    fn apply(&self, out: MatMut<'_, f64>, rhs: MatRef<'_, f64>, par: Par, stack: &mut MemStack) {
+        let n = self.fwd.len();
+        let mut out = out;
+        out.copy_from(rhs);
+        self.llt()
+            .l_transpose_solve_with_conj(Conj::No, out.rb_mut(), par, stack);
+        let mut u = vec![0.0; n];
+        let mut v = vec![0.0; n];
+        for c in 0..out.ncols() {
+            for i in 0..n {
+                u[self.fwd[i]] = out[(i, c)];
+            }
+            sym_matvec(self.m, &u, &mut v);
+            for i in 0..n {
+                out[(i, c)] = v[self.fwd[i]];
+            }
+        }
+        self.llt()
+            .l_solve_with_conj(Conj::No, out.rb_mut(), par, stack);
+        let a = self.count.fetch_add(1, Ordering::Relaxed) + 1;
+        if a % 8 == 0 {
+            (self.progress)(Stage::Lanczos { applications: a });
+        }
+    }
+    fn conj_apply(
+        &self,
+        out: MatMut<'_, f64>,
+        rhs: MatRef<'_, f64>,
+        par: Par,
+        stack: &mut MemStack,
+    ) {
+        self.apply(out, rhs, par, stack)
+    }
+}
+
+fn lanczos(
+    op: &ShiftInvert<'_>,
+    nev: usize,
+    sigma: f64,
+    par: Par,
+    max_restarts: usize,
+) -> Result<(Mat<f64>, Vec<f64>, usize), ModalError> {
+    let n = op.fwd.len();
+    let lparams = faer::matrix_free::eigen::PartialEigenParams {
+        max_restarts,
+        ..Default::default()
+    };
+    let req = faer::matrix_free::eigen::partial_self_adjoint_eigen_scratch(op, nev, par, lparams);
+    let mut buf = MemBuffer::try_new(req)
+        .map_err(|e| ModalError::Factorization(format!("Lanczos workspace: {e:?}")))?;
+    let mut y = Mat::<f64>::zeros(n, nev);
+    let mut theta = vec![0.0; nev];
+    // Deterministic, dense start vector (a fixed-seed LCG): reproducible runs.
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let v0 = Col::<f64>::from_fn(n, |_| {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+    });
+    // Residual tolerance in θ units (θ ≤ 1/|σ|).
+    let tol = 1e-12 / sigma.abs();
+    let out = faer::matrix_free::eigen::partial_self_adjoint_eigen(
+        y.as_mut(),
+        &mut theta,
+        op,
+        v0.as_ref(),
+        tol,
+        par,
+        MemStack::new(&mut buf),
+        lparams,
+    );
+    Ok((y, theta, out.n_converged_eigen))
+}
+
+/// Values of K − s·M (same pattern).
+fn shifted(
+    k: SparseColMatRef<'_, usize, f64>,
+    m: SparseColMatRef<'_, usize, f64>,
+    s: f64,
+) -> SparseColMat<usize, f64> {
+    let vals: Vec<f64> = k
+        .val()
+        .iter()
+        .zip(m.val())
+        .map(|(a, b)| a - s * b)
+        .collect();
+    SparseColMat::new(
+        k.symbolic().to_owned().expect("copy of a valid pattern"),
+        vals,
+    )
+}
+
+fn symbolic_supernodal(
+    a: SparseColMatRef<'_, usize, f64>,
+) -> Result<SymbolicCholesky<usize>, ModalError> {
+    factorize_symbolic_cholesky(
+        a.symbolic(),
+        Side::Lower,
+        SymmetricOrdering::Amd,
+        CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        },
+    )
+    .map_err(|e| ModalError::Factorization(format!("{e:?}")))
+}
+
+/// Number of eigenvalues of K φ = λ M φ below `lambda`, from the inertia of K − λM.
+///
+/// # Errors
+/// [`ModalError::Factorization`] when the LDLᵀ factorization breaks down (a pivot is zero,
+/// i.e. `lambda` is an eigenvalue to working precision).
+pub fn sturm_count(
+    k: SparseColMatRef<'_, usize, f64>,
+    m: SparseColMatRef<'_, usize, f64>,
+    lambda: f64,
+    symbolic: &SymbolicCholesky<usize>,
+    par: Par,
+) -> Result<usize, ModalError> {
+    let a = shifted(k, m, lambda);
+    let mut vals = vec![0.0; symbolic.len_val()];
+    let req = symbolic.factorize_numeric_ldlt_scratch::<f64>(par, Default::default());
+    let mut buf =
+        MemBuffer::try_new(req).map_err(|e| ModalError::Factorization(format!("{e:?}")))?;
+    symbolic
+        .factorize_numeric_ldlt(
+            &mut vals,
+            a.as_ref(),
+            Side::Lower,
+            Default::default(),
+            par,
+            MemStack::new(&mut buf),
+            Default::default(),
+        )
+        .map_err(|e| ModalError::Factorization(format!("LDLT at the cutoff: {e:?}")))?;
+    let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else {
+        return Err(ModalError::Factorization(
+            "expected a supernodal factorization".into(),
+        ));
+    };
+    let ldlt = faer::sparse::linalg::cholesky::supernodal::SupernodalLdltRef::new(sym, &vals);
+    let mut neg = 0;
+    for s in 0..sym.n_supernodes() {
+        let node = ldlt.supernode(s);
+        let mat = node.val();
+        for i in 0..mat.ncols() {
+            if mat[(i, i)] < 0.0 {
+                neg += 1;
+            }
+        }
+    }
+    Ok(neg)
+}
+
+/// Solves for the `params.n_eigen` lowest eigenpairs of K φ = λ M φ (K, M full symmetric CSC,
+/// M positive definite, K positive semi-definite). Returns λ ascending and M-orthonormal φ as
+/// columns.
+///
+/// # Errors
+/// [`ModalError`] when the factorization fails, pairs do not converge, or the Sturm count
+/// disagrees.
+pub fn solve_generalized(
+    k: SparseColMatRef<'_, usize, f64>,
+    m: SparseColMatRef<'_, usize, f64>,
+    params: &EigenParams,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> Result<(Vec<f64>, Mat<f64>, EigenInfo), ModalError> {
+    let n = k.nrows();
+    if n == 0 || params.n_eigen == 0 {
+        return Err(ModalError::Empty(format!(
+            "{n} DOFs, {} eigenpairs requested",
+            params.n_eigen
+        )));
+    }
+    let par = params.par;
+    let sigma = params.shift;
+    let mut info = EigenInfo {
+        dofs: n,
+        nnz_k: k.compute_nnz(),
+        shift: sigma,
+        ..Default::default()
+    };
+    progress(Stage::Factorizing);
+    let t0 = Instant::now();
+    let a = shifted(k, m, sigma);
+    let symbolic = symbolic_supernodal(a.as_ref())?;
+    let mut l_values = Vec::new();
+    l_values
+        .try_reserve_exact(symbolic.len_val())
+        .map_err(|_| {
+            ModalError::Factorization(format!(
+                "cannot allocate the factor ({} entries)",
+                symbolic.len_val()
+            ))
+        })?;
+    l_values.resize(symbolic.len_val(), 0.0);
+    let req = symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+    let mut buf =
+        MemBuffer::try_new(req).map_err(|e| ModalError::Factorization(format!("{e:?}")))?;
+    symbolic
+        .factorize_numeric_llt(
+            &mut l_values,
+            a.as_ref(),
+            Side::Lower,
+            LltRegularization {
+                dynamic_regularization_delta: 0.0,
+                dynamic_regularization_epsilon: 0.0,
+            },
+            par,
+            MemStack::new(&mut buf),
+            Default::default(),
+        )
+        .map_err(|e| ModalError::NotPositiveDefinite {
+            shift: sigma,
+            detail: format!("{e:?}"),
+        })?;
+    drop(buf);
+    drop(a);
+    info.nnz_l = symbolic.len_val();
+    info.factor_s = t0.elapsed().as_secs_f64();
+
+    let SymbolicCholeskyRaw::Supernodal(sym) = symbolic.raw() else {
+        return Err(ModalError::Factorization(
+            "expected a supernodal factorization".into(),
+        ));
+    };
+    let fwd: Vec<usize> = match symbolic.perm() {
+        Some(p) => p.arrays().0.to_vec(),
+        None => (0..n).collect(),
+    };
+    let op = ShiftInvert {
+        symbolic: sym,
+        l_values: &l_values,
+        fwd,
+        m,
+        count: AtomicUsize::new(0),
+        progress,
+    };
+    let t1 = Instant::now();
+    let mut nev = params.n_eigen.min(n);
+    let (y, theta, order) = loop {
+        info.rounds += 1;
+        let (y, theta, converged) = lanczos(&op, nev, sigma, par, params.max_restarts)?;
+        info.converged = converged;
+        let mut order: Vec<usize> = (0..nev).collect();
+        // Largest θ first = lowest λ first.
+        order.sort_by(|&i, &j| theta[j].total_cmp(&theta[i]));
+        let top = sigma + 1.0 / theta[order[nev - 1]];
+        match params.until_lambda {
+            Some(lc) if top < lc && nev < n && nev < params.max_eigen => {
+                nev = (2 * nev).min(n).min(params.max_eigen);
+            }
+            Some(lc) if top < lc => {
+                info.capped = true;
+                break (y, theta, order);
+            }
+            _ => break (y, theta, order),
+        }
+    };
+    info.applications = op.count.load(Ordering::Relaxed);
+    let lambdas: Vec<f64> = order.iter().map(|&i| sigma + 1.0 / theta[i]).collect();
+    let ysorted = Mat::<f64>::from_fn(n, nev, |r, c| y[(r, order[c])]);
+    let mut phi = op.back_transform(ysorted.as_ref(), par);
+    // M-normalise and check residuals.
+    let mut ku = vec![0.0; n];
+    let mut mu = vec![0.0; n];
+    let mut max_res = 0.0f64;
+    let lam_max = lambdas.iter().cloned().fold(0.0, f64::max);
+    for c in 0..nev {
+        let col: Vec<f64> = (0..n).map(|i| phi[(i, c)]).collect();
+        sym_matvec(m, &col, &mut mu);
+        let mnorm = col.iter().zip(&mu).map(|(a, b)| a * b).sum::<f64>().sqrt();
+        if !(mnorm > 0.0) {
+            return Err(ModalError::NoConvergence {
+                converged: info.converged,
+                requested: nev,
+                max_residual: f64::INFINITY,
+                tolerance: params.tolerance,
+            });
+        }
+        for i in 0..n {
+            phi[(i, c)] /= mnorm;
+        }
+        // Residuals only mean something for elastic modes (λ well above round-off).
+        if lambdas[c] > 1e-6 * lam_max {
+            sym_matvec(k, &col, &mut ku);
+            let lam = lambdas[c];
+            let (mut r2, mut m2) = (0.0, 0.0);
+            for i in 0..n {
+                let r = ku[i] - lam * mu[i];
+                r2 += r * r;
+                m2 += (lam * mu[i]) * (lam * mu[i]);
+            }
+            max_res = max_res.max((r2 / m2).sqrt());
+        }
+    }
+    info.max_rel_residual = max_res;
+    info.eigen_s = t1.elapsed().as_secs_f64();
+    if !(max_res <= params.tolerance) || info.converged < nev {
+        return Err(ModalError::NoConvergence {
+            converged: info.converged,
+            requested: nev,
+            max_residual: max_res,
+            tolerance: params.tolerance,
+        });
+    }
+    // Certify: at the cutoff, or halfway between the last pair and the next one's lower bound.
+    let check_at = match params.until_lambda {
+        Some(lc) if !info.capped => Some(lc),
+        _ => lambdas.last().map(|&l| l * (1.0 + 1e-6) + 1e-9),
+    };
+    if let (true, Some(lc)) = (params.sturm_check, check_at) {
+        progress(Stage::SturmCheck);
+        let t2 = Instant::now();
+        let count = sturm_count(k, m, lc, &symbolic, par)?;
+        info.sturm_lambda = Some(lc);
+        info.sturm_s = t2.elapsed().as_secs_f64();
+        info.sturm_count = Some(count);
+        let found = lambdas.iter().filter(|&&l| l < lc).count();
+        // Without a cutoff the last pair only bounds the count from below: more pairs may
+        // cluster just above it (within 1e-6), so only a shortfall is an error there.
+        let bad = if params.until_lambda.is_some() && !info.capped {
+            count != found
+        } else {
+            count < found
+        };
+        if bad {
+            return Err(ModalError::CountMismatch {
+                sturm: count,
+                found,
+                freq_hz: units::lambda_to_freq_hz(lc),
+            });
+        }
+    }
+    Ok((lambdas, phi, info))
+}

@@ -1,0 +1,309 @@
+//! From a mesh and a material to a [`ModalModel`].
+
+use crate::eigen::{solve_generalized, EigenInfo, EigenParams, ModalError, Stage};
+use faer::Par;
+use resound_core::{units, Material, ModalModel};
+use resound_fem::discretize::{
+    discretize_surface, discretize_tets, DiscretizeReport, FemError, VoxelParams,
+};
+use resound_fem::{FemModel, SurfaceMesh, TetMesh};
+use std::time::Instant;
+
+/// Settings of a modal analysis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModalParams {
+    /// Number of elastic modes wanted; `None` means all up to `max_freq_hz`.
+    pub n_modes: Option<usize>,
+    /// Frequency cutoff (Hz) for the given material; 20 kHz when neither is set.
+    pub max_freq_hz: Option<f64>,
+    /// Voxels along the longest side (0: automatic from `target_voxels`).
+    pub resolution: usize,
+    /// Inside voxels aimed at when `resolution` is 0.
+    pub target_voxels: usize,
+    /// Lumped instead of consistent mass.
+    pub lumped_mass: bool,
+    /// Fill surface holes up to this many boundary edges.
+    pub max_hole_edges: usize,
+    /// Certify the mode count by inertia (one extra factorization).
+    pub sturm_check: bool,
+    /// Relative residual tolerance ‖Kφ − λMφ‖/(λ‖Mφ‖).
+    pub tolerance: f64,
+    /// Cap on modes with a cutoff.
+    pub max_modes: usize,
+    /// Threads (0: all cores).
+    pub threads: usize,
+}
+
+impl Default for ModalParams {
+    fn default() -> Self {
+        let v = VoxelParams::default();
+        ModalParams {
+            n_modes: None,
+            max_freq_hz: None,
+            resolution: 0,
+            target_voxels: v.target_voxels,
+            lumped_mass: false,
+            max_hole_edges: 0,
+            sturm_check: true,
+            tolerance: 1e-6,
+            max_modes: 2000,
+            threads: 0,
+        }
+    }
+}
+
+/// Errors of [`compute_modal_model`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ModelError {
+    /// Discretization failed.
+    #[error(transparent)]
+    Fem(#[from] FemError),
+    /// The eigen-solve failed.
+    #[error(transparent)]
+    Eigen(#[from] ModalError),
+    /// Parameters make no sense.
+    #[error("invalid parameters: {0}")]
+    Params(String),
+}
+
+/// What a modal analysis did, for reports and benchmarks.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ModalSolveInfo {
+    /// Discretization report (surface input only).
+    pub discretize: Option<DiscretizeReport>,
+    /// Eigen-solve report.
+    pub eigen: EigenInfo,
+    /// Element type.
+    pub element: &'static str,
+    /// Elements.
+    pub elements: usize,
+    /// DOFs.
+    pub dofs: usize,
+    /// Discretization + assembly wall time (s).
+    pub assemble_s: f64,
+    /// Everything (s).
+    pub total_s: f64,
+    /// Rigid-body modes dropped.
+    pub rigid_modes: usize,
+    /// Largest |frequency| among them (Hz): ≈ 0 for a free object.
+    pub rigid_max_hz: f64,
+    /// Things the user should know.
+    pub warnings: Vec<String>,
+}
+
+/// Voxelizes `mesh`, solves, and returns the modal model with shapes on the (repaired) surface.
+///
+/// # Errors
+/// [`ModelError`] for unusable meshes, materials, parameters or a failed solve.
+pub fn compute_modal_model(
+    mesh: &SurfaceMesh,
+    material: &Material,
+    params: &ModalParams,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> Result<(ModalModel, ModalSolveInfo), ModelError> {
+    check_params(params)?;
+    let t0 = Instant::now();
+    let vp = VoxelParams {
+        resolution: params.resolution,
+        target_voxels: params.target_voxels,
+        lumped_mass: params.lumped_mass,
+        max_hole_edges: params.max_hole_edges,
+        ..Default::default()
+    };
+    let (fem, report) = discretize_surface(mesh, material, &vp)?;
+    let assemble_s = t0.elapsed().as_secs_f64();
+    let (model, mut info) = compute_modal_model_from_fem(&fem, material, params, 1, progress)?;
+    if report.dropped_voxels > 0 {
+        info.warnings.push(format!(
+            "{} voxels not face-connected to the main body were dropped (thin parts; raise --resolution)",
+            report.dropped_voxels
+        ));
+    }
+    info.discretize = Some(report);
+    info.assemble_s = assemble_s;
+    info.total_s = t0.elapsed().as_secs_f64();
+    Ok((model, info))
+}
+
+/// Solves a tet mesh (quadratic tets).
+///
+/// # Errors
+/// As [`compute_modal_model`].
+pub fn compute_modal_model_from_tets(
+    tets: &TetMesh,
+    material: &Material,
+    params: &ModalParams,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> Result<(ModalModel, ModalSolveInfo), ModelError> {
+    check_params(params)?;
+    let t0 = Instant::now();
+    let fem = discretize_tets(tets, material, params.lumped_mass)?;
+    let components = tet_components(tets);
+    let assemble_s = t0.elapsed().as_secs_f64();
+    let (model, mut info) =
+        compute_modal_model_from_fem(&fem, material, params, components, progress)?;
+    if components > 1 {
+        info.warnings.push(format!(
+            "the tet mesh has {components} separate parts; {} rigid modes dropped",
+            6 * components
+        ));
+    }
+    info.assemble_s = assemble_s;
+    info.total_s = t0.elapsed().as_secs_f64();
+    Ok((model, info))
+}
+
+fn tet_components(t: &TetMesh) -> usize {
+    let mut parent: Vec<usize> = (0..t.nodes.len()).collect();
+    fn find(p: &mut [usize], mut x: usize) -> usize {
+        while p[x] != x {
+            p[x] = p[p[x]];
+            x = p[x];
+        }
+        x
+    }
+    for tet in &t.tets {
+        let a = find(&mut parent, tet[0] as usize);
+        for &v in &tet[1..] {
+            let b = find(&mut parent, v as usize);
+            parent[b] = a;
+        }
+    }
+    let mut roots: Vec<usize> = t
+        .tets
+        .iter()
+        .map(|tet| find(&mut parent, tet[0] as usize))
+        .collect();
+    roots.sort_unstable();
+    roots.dedup();
+    roots.len()
+}
+
+fn check_params(p: &ModalParams) -> Result<(), ModelError> {
+    if let Some(f) = p.max_freq_hz {
+        if !(f > 0.0 && f.is_finite()) {
+            return Err(ModelError::Params(format!(
+                "max frequency {f} Hz must be positive"
+            )));
+        }
+    }
+    if p.n_modes == Some(0) {
+        return Err(ModelError::Params("--modes must be at least 1".into()));
+    }
+    if p.resolution > 2000 {
+        return Err(ModelError::Params(format!(
+            "resolution {} is absurd (at most 2000)",
+            p.resolution
+        )));
+    }
+    Ok(())
+}
+
+/// Solves an assembled model with `components` free parts (6 rigid modes each).
+///
+/// # Errors
+/// [`ModelError::Eigen`] when the solve fails.
+pub fn compute_modal_model_from_fem(
+    fem: &FemModel,
+    material: &Material,
+    params: &ModalParams,
+    components: usize,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> Result<(ModalModel, ModalSolveInfo), ModelError> {
+    let t0 = Instant::now();
+    let rigid = 6 * components.max(1);
+    // Shift: 2 % of the axial fundamental c/(2L) of the largest dimension, a scale below the
+    // first elastic mode of compact solids and near it for slender ones.
+    let (lo, hi) = fem.surface.bbox();
+    let lmax = (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max).max(1e-9);
+    let f_ref = material.bar_wave_speed() / (2.0 * lmax);
+    let shift = -units::freq_hz_to_lambda(0.02 * f_ref);
+    let cutoff = match (params.n_modes, params.max_freq_hz) {
+        (None, None) => Some(20_000.0),
+        (_, f) => f,
+    };
+    let until = cutoff.map(units::freq_hz_to_lambda);
+    let n_eigen = match params.n_modes {
+        Some(n) => n + rigid,
+        None => rigid + 40,
+    };
+    let ep = EigenParams {
+        n_eigen: n_eigen.min(fem.n_dofs()),
+        shift,
+        tolerance: params.tolerance,
+        until_lambda: if params.n_modes.is_some() {
+            None
+        } else {
+            until
+        },
+        max_eigen: params.max_modes + rigid,
+        sturm_check: params.sturm_check,
+        par: if params.threads == 0 {
+            Par::rayon(0)
+        } else if params.threads == 1 {
+            Par::Seq
+        } else {
+            Par::rayon(params.threads)
+        },
+        ..Default::default()
+    };
+    let (lambdas, phi, einfo) = solve_generalized(fem.k.as_ref(), fem.m.as_ref(), &ep, progress)?;
+    let mut info = ModalSolveInfo {
+        element: fem.element,
+        elements: fem.n_elements,
+        dofs: fem.n_dofs(),
+        rigid_modes: rigid.min(lambdas.len()),
+        ..Default::default()
+    };
+    info.rigid_max_hz = lambdas[..info.rigid_modes]
+        .iter()
+        .map(|l| units::lambda_to_freq_hz(l.abs()))
+        .fold(0.0, f64::max);
+    let mut keep: Vec<usize> = (info.rigid_modes..lambdas.len()).collect();
+    if let Some(f) = cutoff {
+        let lc = units::freq_hz_to_lambda(f);
+        keep.retain(|&j| lambdas[j] <= lc);
+    }
+    if let Some(n) = params.n_modes {
+        keep.truncate(n);
+    }
+    if let Some(&first) = keep.first() {
+        let f1 = units::lambda_to_freq_hz(lambdas[first]);
+        if info.rigid_max_hz > 1e-2 * f1 {
+            info.warnings.push(format!(
+                "rigid-body modes are not near zero ({:.3} Hz vs first elastic {f1:.1} Hz): the model may contain a mechanism (parts joined by an edge or a vertex)",
+                info.rigid_max_hz
+            ));
+        }
+    }
+    if einfo.capped {
+        info.warnings.push(format!(
+            "stopped at --max-modes {} below the cutoff",
+            params.max_modes
+        ));
+    }
+    let nv = fem.surface.vertices.len();
+    let mut shapes = Vec::with_capacity(keep.len() * nv * 3);
+    let mut col = vec![0.0; fem.n_dofs()];
+    for &j in &keep {
+        for (i, c) in col.iter_mut().enumerate() {
+            *c = phi[(i, j)];
+        }
+        for u in fem.surface_field(&col) {
+            shapes.extend(u.iter().map(|&x| x as f32));
+        }
+    }
+    let model = ModalModel {
+        material: material.clone(),
+        eigenvalues: keep.iter().map(|&j| lambdas[j].max(0.0)).collect(),
+        vertices: fem.surface.vertices.clone(),
+        triangles: fem.surface.triangles.clone(),
+        shapes,
+        fem_dofs: fem.n_dofs() as u64,
+        fem_elements: fem.n_elements as u64,
+    };
+    info.eigen = einfo;
+    info.total_s = t0.elapsed().as_secs_f64();
+    Ok((model, info))
+}

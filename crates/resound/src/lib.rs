@@ -1,0 +1,22 @@
+//! Resound: physically based contact sound. This facade re-exports the pipeline crates.
+//!
+//! ```
+//! use resound::prelude::*;
+//! let steel = Material::preset("steel").unwrap();
+//! let bar = primitive::bar([0.3, 0.02, 0.01]);
+//! assert_eq!(bar.triangles.len(), 12);
+//! # let _ = steel;
+//! ```
+#![warn(missing_docs)]
+
+pub use resound_core as core;
+pub use resound_fem as fem;
+pub use resound_io as io;
+pub use resound_modal as modal;
+
+/// The types most programs need.
+pub mod prelude {
+    pub use resound_core::{Material, ModalModel};
+    pub use resound_fem::{primitive, SurfaceMesh, TetMesh};
+    pub use resound_modal::{ModalParams, ModalSolveInfo};
+}
