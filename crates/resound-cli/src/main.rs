@@ -1,1 +1,66 @@
-fn main() {}
+//! `resound`: physically based contact sound from the command line.
+//!
+//! The binary is argument parsing plus glue (ripgrep's split): every subcommand calls one
+//! library function, prints text by default or JSON with `--json`, and exits 2 on error.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod bench;
+mod mesh_cmd;
+mod modal_cmd;
+mod util;
+
+/// Resound: find the material behind a recorded strike and make any object of it sound right.
+#[derive(Parser, Debug)]
+#[command(
+    name = "resound",
+    version,
+    about = "Resound: physically based contact sound. Find the material behind a recorded strike; make any object of it sound right.",
+    propagate_version = true
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Compute an object's vibration modes from a closed surface or tet mesh and a material (FEM + eigen-solve).
+    Modal(modal_cmd::ModalArgs),
+    /// Make, inspect and check meshes (primitives, repair report).
+    #[command(subcommand)]
+    Mesh(mesh_cmd::MeshCmd),
+    /// Inspect a saved modal model, optionally rescaled to another material or at a hit point.
+    Model(modal_cmd::ModelInfoArgs),
+    /// Run the benchmarks and print their figures (table or JSON).
+    #[command(subcommand)]
+    Bench(bench::BenchCmd),
+    /// One benchmark case in a fresh process (used by `bench` to measure peak memory).
+    #[command(hide = true)]
+    BenchCase(bench::CaseArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Modal(a) => modal_cmd::run(a),
+        Command::Mesh(c) => mesh_cmd::run(c),
+        Command::Model(a) => modal_cmd::run_info(a),
+        Command::Bench(c) => bench::run(c),
+        Command::BenchCase(a) => bench::run_case(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            if e.chain().any(|c| {
+                c.downcast_ref::<std::io::Error>()
+                    .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+            }) {
+                return ExitCode::SUCCESS;
+            }
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -19,7 +19,7 @@ impl Assembler {
     /// # Panics
     /// If `elements.len()` is not a multiple of `stride` or a node index is ≥ `n_nodes`.
     pub fn new(n_nodes: usize, elements: &[u32], stride: usize) -> Self {
-        assert!(stride > 0 && elements.len() % stride == 0);
+        assert!(stride > 0 && elements.len().is_multiple_of(stride));
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); n_nodes];
         for e in elements.chunks_exact(stride) {
             for &a in e {

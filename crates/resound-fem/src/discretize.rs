@@ -144,6 +144,8 @@ pub struct FemModel {
     pub interp_node: Vec<u32>,
     /// Weight of each interpolation entry.
     pub interp_weight: Vec<f64>,
+    /// What was adjusted on the way (for users).
+    pub notes: Vec<String>,
 }
 
 impl FemModel {
@@ -333,6 +335,7 @@ pub fn discretize_surface(
             interp_ptr,
             interp_node,
             interp_weight,
+            notes: Vec::new(),
         },
         report,
     ))
@@ -427,6 +430,30 @@ pub fn discretize_tets(
             "tetrahedron {e} {t:?} refers past the {nn} nodes"
         )));
     }
+    // A file whose tets are all negatively oriented uses the opposite convention: flip them all.
+    let signed = |t: &[u32; 4]| {
+        let x = t.map(|i| tets.nodes[i as usize]);
+        let d = |q: usize, r: usize| x[q][r] - x[0][r];
+        d(1, 0) * (d(2, 1) * d(3, 2) - d(2, 2) * d(3, 1))
+            - d(1, 1) * (d(2, 0) * d(3, 2) - d(2, 2) * d(3, 0))
+            + d(1, 2) * (d(2, 0) * d(3, 1) - d(2, 1) * d(3, 0))
+    };
+    let mut notes = Vec::new();
+    let flipped: Vec<[u32; 4]>;
+    let tet_list: &[[u32; 4]] = if tets.tets.iter().all(|t| signed(t) < 0.0) {
+        notes.push(format!(
+            "all {} tetrahedra were negatively oriented; flipped them (file convention)",
+            tets.tets.len()
+        ));
+        flipped = tets.tets.iter().map(|t| [t[0], t[2], t[1], t[3]]).collect();
+        &flipped
+    } else {
+        &tets.tets
+    };
+    let tets = &TetMesh {
+        nodes: tets.nodes.clone(),
+        tets: tet_list.to_vec(),
+    };
     // Only nodes used by tets take part; midpoints are new nodes.
     let mut used = vec![u32::MAX; nn];
     let mut nodes = Vec::new();
@@ -522,6 +549,7 @@ pub fn discretize_tets(
         interp_ptr: (0..=nv).collect(),
         interp_node,
         interp_weight: vec![1.0; nv],
+        notes,
     })
 }
 
@@ -565,6 +593,50 @@ pub fn box_tets(size: [f64; 3], n: [usize; 3]) -> TetMesh {
     m
 }
 
+/// DOFs that `discretize_surface` would produce for a repaired `surface` at `resolution`,
+/// without assembling (for choosing a resolution by DOF budget).
+pub fn voxel_dofs(surface: &SurfaceMesh, resolution: usize) -> usize {
+    let mut grid = voxel::voxelize(surface, resolution);
+    grid.keep_largest_component();
+    let [nx, ny, nz] = grid.dims;
+    let (px, py) = (nx + 1, ny + 1);
+    let mut used = vec![false; px * py * (nz + 1)];
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                if grid.inside[grid.index(i, j, k)] {
+                    for n in 0..8 {
+                        used[(i + (n & 1)) + px * ((j + ((n >> 1) & 1)) + py * (k + (n >> 2)))] =
+                            true;
+                    }
+                }
+            }
+        }
+    }
+    3 * used.iter().filter(|&&u| u).count()
+}
+
+/// The resolution whose DOF count is closest to `target_dofs` (a few voxelizations).
+pub fn resolution_for_dofs(surface: &SurfaceMesh, target_dofs: usize) -> usize {
+    let vol = surface.signed_volume();
+    let mut res = voxel::resolution_for_voxels(surface, vol, (target_dofs / 3).max(1));
+    let mut best = (usize::MAX, res);
+    for _ in 0..6 {
+        let d = voxel_dofs(surface, res);
+        let err = d.abs_diff(target_dofs);
+        if err < best.0 {
+            best = (err, res);
+        }
+        let next = ((res as f64) * (target_dofs as f64 / d.max(1) as f64).cbrt()).round() as usize;
+        let next = next.clamp(2, 2000);
+        if next == res {
+            break;
+        }
+        res = next;
+    }
+    best.1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -597,6 +669,13 @@ mod tests {
     fn bad_tets_are_named() {
         let steel = Material::preset("steel").unwrap();
         let mut t = box_tets([1.0, 1.0, 1.0], [1, 1, 1]);
+        let mut all = t.clone();
+        for tet in &mut all.tets {
+            tet.swap(0, 1);
+        }
+        let f = discretize_tets(&all, &steel, false).unwrap();
+        assert_eq!(f.notes.len(), 1);
+        assert!((f.total_mass_kg() - 7850.0).abs() < 1e-9);
         t.tets[2].swap(0, 1);
         assert!(matches!(
             discretize_tets(&t, &steel, false),

@@ -79,6 +79,9 @@ impl VoxelGrid {
     }
 }
 
+/// Largest ratio of voxel edge lengths.
+pub const MAX_ASPECT: f64 = 4.0;
+
 /// Grid spacing and dims fitted to the mesh bounding box with `resolution` voxels along its
 /// longest side.
 pub fn fitted_grid(mesh: &SurfaceMesh, resolution: usize) -> ([f64; 3], [f64; 3], [usize; 3]) {
@@ -86,7 +89,16 @@ pub fn fitted_grid(mesh: &SurfaceMesh, resolution: usize) -> ([f64; 3], [f64; 3]
     let len = [0, 1, 2].map(|c| hi[c] - lo[c]);
     let lmax = len.iter().cloned().fold(0.0, f64::max);
     let h = lmax / resolution.max(1) as f64;
-    let dims = len.map(|l| ((l / h).round() as usize).max(1));
+    let mut dims = len.map(|l| ((l / h).round() as usize).max(1));
+    // A thin axis rounds to one voxel of its full length; keep voxels no more than
+    // MAX_ASPECT times longer than that, or elements of aspect 100+ ruin the conditioning.
+    let hmin = (0..3)
+        .map(|c| len[c] / dims[c] as f64)
+        .fold(f64::INFINITY, f64::min);
+    for c in 0..3 {
+        let need = (len[c] / (MAX_ASPECT * hmin)).ceil() as usize;
+        dims[c] = dims[c].max(need).max(1);
+    }
     let spacing = [0, 1, 2].map(|c| len[c] / dims[c] as f64);
     (lo, spacing, dims)
 }
@@ -182,6 +194,17 @@ pub fn voxelize(mesh: &SurfaceMesh, resolution: usize) -> VoxelGrid {
 mod tests {
     use super::*;
     use crate::primitive;
+
+    #[test]
+    fn thin_plates_get_bounded_aspect_ratio() {
+        let m = primitive::plate(1.0, 1.0, 0.001);
+        let (_, h, dims) = fitted_grid(&m, 3);
+        assert_eq!(dims[2], 1);
+        assert!(
+            h[0] / h[2] <= MAX_ASPECT + 1e-9 && h[1] / h[2] <= MAX_ASPECT + 1e-9,
+            "{h:?}"
+        );
+    }
 
     #[test]
     fn box_is_tiled_exactly() {

@@ -1,1 +1,67 @@
-//! placeholder
+//! File formats at the edge of Resound: meshes in, modal models in and out, matrices out.
+//! Every writer is atomic: it writes a temporary file beside the target and renames it.
+//!
+//! # Formats
+//! | kind | extensions | notes |
+//! |---|---|---|
+//! | surface mesh | `.obj`, `.stl` (ASCII/binary), `.ply` (ASCII/binary LE/BE) | read; OBJ/STL/PLY written |
+//! | tet mesh | `.msh` (gmsh 2.2 and 4.1, ASCII and binary), `.node`+`.ele` (TetGen), `.mesh` (MEDIT) | read; surface-only files load as surfaces |
+//! | modal model | `.rmodal` | versioned little-endian binary with a checksum ([`model_file`]) |
+//! | matrices | Matrix Market `.mtx` | `coordinate real symmetric` (lower triangle) |
+#![warn(missing_docs)]
+
+pub mod atomic;
+pub mod mesh;
+pub mod model_file;
+pub mod mtx;
+mod ply;
+mod tetfile;
+
+pub use mesh::{load_mesh, save_surface, LoadedMesh};
+
+use std::path::PathBuf;
+
+/// Errors of file I/O.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum IoError {
+    /// The OS refused.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The content is malformed.
+    #[error("{path}: {msg}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, with a line number where known.
+        msg: String,
+    },
+    /// Unknown extension.
+    #[error("{path}: unsupported file type (known: .obj .stl .ply .msh .node .ele .mesh .rmodal)")]
+    Unsupported {
+        /// The file.
+        path: PathBuf,
+    },
+}
+
+/// `Result` with [`IoError`].
+pub type Result<T> = std::result::Result<T, IoError>;
+
+pub(crate) fn parse_err(path: &std::path::Path, msg: impl Into<String>) -> IoError {
+    IoError::Parse {
+        path: path.to_path_buf(),
+        msg: msg.into(),
+    }
+}
+
+pub(crate) fn io_err(path: &std::path::Path, source: std::io::Error) -> IoError {
+    IoError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}

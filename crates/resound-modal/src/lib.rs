@@ -23,7 +23,7 @@ pub mod model;
 
 pub use eigen::{solve_generalized, EigenInfo, EigenParams, ModalError, Stage};
 pub use model::{
-    compute_modal_model, compute_modal_model_from_fem, compute_modal_model_from_tets, ModalParams,
-    ModalSolveInfo, ModelError,
+    compute_modal_model, compute_modal_model_from_fem, compute_modal_model_from_tets,
+    compute_modal_model_keep_fem, ModalParams, ModalSolveInfo, ModelError,
 };
 pub use resound_core::ModalModel;

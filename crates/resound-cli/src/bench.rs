@@ -1,0 +1,214 @@
+//! `resound bench …`: benchmark figures, each case in a fresh child process so peak memory
+//! (VmHWM) belongs to that case alone.
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Subcommand};
+use resound::core::Material;
+use resound::fem::{discretize, primitive, SurfaceMesh};
+use resound::modal::{compute_modal_model_from_fem, ModalParams};
+use serde_json::{json, Value};
+use std::process::Command;
+
+/// The bundled CC0 mesh (Keenan Crane's Spot), see assets/meshes/LICENSE-spot.md.
+const SPOT_OBJ: &[u8] = include_bytes!("../../../assets/meshes/spot.obj");
+/// Spot is in arbitrary units with a 1.7 long side: 0.15 makes it a 26 cm ceramic cow.
+const SPOT_SCALE: f64 = 0.15;
+
+/// Benchmarks.
+#[derive(Subcommand, Debug)]
+pub enum BenchCmd {
+    /// Modal analysis: the steel bar and the Spot mesh at ~10k, ~30k, ~100k DOFs, 200 modes.
+    Modal(ModalBenchArgs),
+}
+
+/// Arguments of `bench modal`.
+#[derive(Args, Debug)]
+pub struct ModalBenchArgs {
+    /// JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Target DOF counts.
+    #[arg(long, default_value = "10000,30000,100000")]
+    pub dofs: String,
+    /// Elastic modes per solve.
+    #[arg(long, default_value_t = 200)]
+    pub modes: usize,
+    /// Meshes: bar, spot.
+    #[arg(long, default_value = "bar,spot")]
+    pub meshes: String,
+    /// Also certify the count with a Sturm check (one more factorization).
+    #[arg(long)]
+    pub sturm: bool,
+}
+
+/// One case (hidden subcommand).
+#[derive(Args, Debug)]
+pub struct CaseArgs {
+    /// bar or spot.
+    #[arg(long)]
+    pub mesh: String,
+    /// Target DOFs.
+    #[arg(long)]
+    pub target_dofs: usize,
+    /// Elastic modes.
+    #[arg(long)]
+    pub modes: usize,
+    /// Sturm check.
+    #[arg(long)]
+    pub sturm: bool,
+}
+
+fn bench_mesh(name: &str) -> Result<(SurfaceMesh, Material)> {
+    Ok(match name {
+        "bar" => (
+            primitive::bar([0.3, 0.02, 0.01]),
+            Material::preset("steel")?,
+        ),
+        "spot" => {
+            let dir = tempfile_dir()?;
+            let p = dir.join("spot.obj");
+            std::fs::write(&p, SPOT_OBJ)?;
+            let m = match resound::io::load_mesh(&p, SPOT_SCALE)? {
+                resound::io::LoadedMesh::Surface(s) => s,
+                resound::io::LoadedMesh::Tets(_) => bail!("spot is a surface"),
+            };
+            let _ = std::fs::remove_dir_all(&dir);
+            (m, Material::preset("ceramic")?)
+        }
+        other => bail!("unknown benchmark mesh '{other}' (bar, spot)"),
+    })
+}
+
+fn tempfile_dir() -> Result<std::path::PathBuf> {
+    let d = std::env::temp_dir().join(format!("resound-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&d)?;
+    Ok(d)
+}
+
+fn peak_rss_mib() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// Runs one case and prints one JSON line.
+pub fn run_case(a: CaseArgs) -> Result<()> {
+    let (mesh, material) = bench_mesh(&a.mesh)?;
+    let (surface, _) = mesh.repaired(0)?;
+    let resolution = discretize::resolution_for_dofs(&surface, a.target_dofs);
+    let t0 = std::time::Instant::now();
+    let vp = discretize::VoxelParams {
+        resolution,
+        ..Default::default()
+    };
+    let (fem, _) = discretize::discretize_surface(&surface, &material, &vp)?;
+    let assemble_s = t0.elapsed().as_secs_f64();
+    let p = ModalParams {
+        n_modes: Some(a.modes),
+        sturm_check: a.sturm,
+        resolution,
+        ..Default::default()
+    };
+    let (model, info) = compute_modal_model_from_fem(&fem, &material, &p, 1, &|_| {})?;
+    let total_s = t0.elapsed().as_secs_f64();
+    let v = json!({
+        "mesh": a.mesh,
+        "material": material.name,
+        "target_dofs": a.target_dofs,
+        "resolution": resolution,
+        "dofs": info.dofs,
+        "elements": info.elements,
+        "nnz": info.eigen.nnz_k,
+        "nnz_factor": info.eigen.nnz_l,
+        "modes": model.n_modes(),
+        "assemble_s": assemble_s,
+        "factor_s": info.eigen.factor_s,
+        "eigen_s": info.eigen.eigen_s,
+        "sturm_s": info.eigen.sturm_s,
+        "total_s": total_s,
+        "operator_applications": info.eigen.applications,
+        "max_rel_residual": info.eigen.max_rel_residual,
+        "peak_rss_mib": peak_rss_mib(),
+        "f1_hz": model.freqs_hz().first(),
+        "f_last_hz": model.freqs_hz().last(),
+    });
+    println!("{v}");
+    Ok(())
+}
+
+/// Runs a benchmark.
+pub fn run(c: BenchCmd) -> Result<()> {
+    let BenchCmd::Modal(a) = c;
+    let exe = std::env::current_exe().context("locating the resound binary")?;
+    let dofs: Vec<usize> = crate::util::parse_list(&a.dofs)?
+        .iter()
+        .map(|&d| d as usize)
+        .collect();
+    let mut rows: Vec<Value> = Vec::new();
+    for mesh in a.meshes.split(',').map(str::trim) {
+        for &d in &dofs {
+            if !a.json {
+                eprintln!("bench modal: {mesh} ~{d} DOFs, {} modes ...", a.modes);
+            }
+            let mut cmd = Command::new(&exe);
+            cmd.args([
+                "bench-case",
+                "--mesh",
+                mesh,
+                "--target-dofs",
+                &d.to_string(),
+                "--modes",
+                &a.modes.to_string(),
+            ]);
+            if a.sturm {
+                cmd.arg("--sturm");
+            }
+            let out = cmd.output().context("running a benchmark case")?;
+            if !out.status.success() {
+                bail!(
+                    "benchmark case {mesh}/{d} failed: {}",
+                    String::from_utf8_lossy(&out.stderr)
+                );
+            }
+            let v: Value =
+                serde_json::from_slice(&out.stdout).context("parsing a benchmark case")?;
+            rows.push(v);
+        }
+    }
+    let cpu = std::fs::read_to_string("/proc/cpuinfo").ok().and_then(|s| {
+        s.lines()
+            .find(|l| l.starts_with("model name"))
+            .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+    });
+    let doc = json!({
+        "benchmark": "modal",
+        "threads": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+        "cpu": cpu,
+        "targets": {"30k_dofs_s": 5.0, "100k_dofs_s": 30.0, "peak_mib": 4096},
+        "cases": rows,
+    });
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+    } else {
+        println!(
+            "{:<5} {:>8} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9}",
+            "mesh", "dofs", "nnz", "nnz(L)", "factor_s", "eigen_s", "total_s", "peak_MiB", "f1_hz"
+        );
+        for r in &rows {
+            println!(
+                "{:<5} {:>8} {:>9} {:>10} {:>9.2} {:>9.2} {:>9.2} {:>9.0} {:>9.1}",
+                r["mesh"].as_str().unwrap_or(""),
+                r["dofs"],
+                r["nnz"],
+                r["nnz_factor"],
+                r["factor_s"].as_f64().unwrap_or(f64::NAN),
+                r["eigen_s"].as_f64().unwrap_or(f64::NAN),
+                r["total_s"].as_f64().unwrap_or(f64::NAN),
+                r["peak_rss_mib"].as_f64().unwrap_or(f64::NAN),
+                r["f1_hz"].as_f64().unwrap_or(f64::NAN),
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,56 @@
+//! Small helpers shared by subcommands.
+
+use anyhow::{bail, Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use resound::modal::Stage;
+use std::time::Duration;
+
+/// Parses `x,y,z`.
+pub fn parse_vec3(s: &str) -> Result<[f64; 3]> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .with_context(|| format!("'{s}' is not x,y,z"))?;
+    if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+        bail!("'{s}' must be three finite numbers x,y,z");
+    }
+    Ok([v[0], v[1], v[2]])
+}
+
+/// Parses a comma-separated list of positive numbers.
+pub fn parse_list(s: &str) -> Result<Vec<f64>> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .with_context(|| format!("'{s}' is not a comma-separated list of numbers"))?;
+    if v.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+        bail!("'{s}': every value must be a positive number");
+    }
+    Ok(v)
+}
+
+/// A spinner on stderr (hidden when stderr is not a terminal) that follows solver stages.
+pub fn spinner(label: &str) -> ProgressBar {
+    let pb = ProgressBar::new_spinner();
+    pb.set_style(
+        ProgressStyle::with_template("{spinner} {prefix} [{elapsed}] {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    pb.set_prefix(label.to_string());
+    pb.enable_steady_tick(Duration::from_millis(120));
+    pb
+}
+
+/// Maps solver stages onto a spinner message.
+pub fn stage_message(pb: &ProgressBar, s: Stage) {
+    match s {
+        Stage::Factorizing => pb.set_message("factorizing K - sigma*M"),
+        Stage::Lanczos { applications } => {
+            pb.set_message(format!("Lanczos: {applications} operator applications"))
+        }
+        Stage::SturmCheck => pb.set_message("checking the mode count (Sturm)"),
+        _ => {}
+    }
+}

@@ -1,0 +1,374 @@
+//! Decoder tests: every format is generated here (small files) and read back.
+// Test helpers may unwrap: a panic is a failed test (clippy's allow-unwrap-in-tests only
+// covers #[test] functions themselves).
+#![allow(clippy::unwrap_used)]
+
+use resound_core::{Material, ModalModel};
+use resound_fem::discretize::box_tets;
+use resound_fem::{primitive, SurfaceMesh, TetMesh};
+use resound_io::{load_mesh, model_file, save_surface, IoError, LoadedMesh};
+use std::fmt::Write as _;
+use std::path::Path;
+
+fn tets(m: LoadedMesh) -> TetMesh {
+    match m {
+        LoadedMesh::Tets(t) => t,
+        LoadedMesh::Surface(_) => panic!("expected tets"),
+    }
+}
+
+fn surface(m: LoadedMesh) -> SurfaceMesh {
+    match m {
+        LoadedMesh::Surface(s) => s,
+        LoadedMesh::Tets(_) => panic!("expected a surface"),
+    }
+}
+
+fn reference() -> TetMesh {
+    box_tets([0.3, 0.02, 0.01], [3, 2, 1])
+}
+
+fn same_tets(a: &TetMesh, b: &TetMesh) {
+    assert_eq!(a.tets, b.tets);
+    assert_eq!(a.nodes.len(), b.nodes.len());
+    for (p, q) in a.nodes.iter().zip(&b.nodes) {
+        for c in 0..3 {
+            assert!((p[c] - q[c]).abs() < 1e-12, "{p:?} vs {q:?}");
+        }
+    }
+}
+
+#[test]
+fn surface_round_trips_obj_stl_ply() {
+    let dir = tempfile::tempdir().unwrap();
+    let bar = primitive::cylinder(0.05, 0.1, 16);
+    for ext in ["obj", "stl", "ply"] {
+        let p = dir.path().join(format!("m.{ext}"));
+        save_surface(&p, &bar).unwrap();
+        let m = surface(load_mesh(&p, 1.0).unwrap());
+        let (r, _) = m.repaired(0).unwrap();
+        // STL is a triangle soup in f32: welding restores the shared vertices.
+        assert_eq!(r.vertices.len(), bar.vertices.len(), "{ext}");
+        assert_eq!(r.triangles.len(), bar.triangles.len(), "{ext}");
+        assert!(
+            (r.signed_volume() - bar.signed_volume()).abs() < 1e-6 * bar.signed_volume(),
+            "{ext}"
+        );
+    }
+    // --scale: a file in millimetres.
+    let p = dir.path().join("mm.obj");
+    save_surface(&p, &primitive::bar([300.0, 20.0, 10.0])).unwrap();
+    let m = surface(load_mesh(&p, 0.001).unwrap());
+    assert!((m.signed_volume() - 0.3 * 0.02 * 0.01).abs() < 1e-12);
+}
+
+#[test]
+fn ascii_stl_and_binary_ply() {
+    let dir = tempfile::tempdir().unwrap();
+    let bar = primitive::bar([1.0, 2.0, 3.0]);
+    let mut s = String::from("solid box\n");
+    for t in &bar.triangles {
+        s += "facet normal 0 0 0\nouter loop\n";
+        for &v in t {
+            let p = bar.vertices[v as usize];
+            writeln!(s, "vertex {} {} {}", p[0], p[1], p[2]).unwrap();
+        }
+        s += "endloop\nendfacet\n";
+    }
+    s += "endsolid box\n";
+    let p = dir.path().join("a.stl");
+    std::fs::write(&p, s).unwrap();
+    let m = surface(load_mesh(&p, 1.0).unwrap());
+    assert!((m.repaired(0).unwrap().0.signed_volume() - 6.0).abs() < 1e-9);
+
+    for (fmt, be) in [("binary_little_endian", false), ("binary_big_endian", true)] {
+        let mut b = format!(
+            "ply\nformat {fmt} 1.0\ncomment made in a test\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nelement face {}\nproperty list uchar int vertex_indices\nend_header\n",
+            bar.vertices.len(),
+            bar.triangles.len()
+        )
+        .into_bytes();
+        let f32b = |x: f32| if be { x.to_be_bytes() } else { x.to_le_bytes() };
+        let i32b = |x: i32| if be { x.to_be_bytes() } else { x.to_le_bytes() };
+        for v in &bar.vertices {
+            for x in v {
+                b.extend_from_slice(&f32b(*x as f32));
+            }
+            b.push(200);
+        }
+        for t in &bar.triangles {
+            b.push(3);
+            for &i in t {
+                b.extend_from_slice(&i32b(i as i32));
+            }
+        }
+        let p = dir.path().join("b.ply");
+        std::fs::write(&p, &b).unwrap();
+        let m = surface(load_mesh(&p, 1.0).unwrap());
+        assert_eq!(m, bar, "{fmt}");
+        // Truncated body is an error, not a panic.
+        std::fs::write(&p, &b[..b.len() - 7]).unwrap();
+        assert!(matches!(load_mesh(&p, 1.0), Err(IoError::Parse { .. })));
+    }
+}
+
+fn msh22(t: &TetMesh, binary: bool) -> Vec<u8> {
+    let mut b = format!("$MeshFormat\n2.2 {} 8\n", binary as i32).into_bytes();
+    if binary {
+        b.extend_from_slice(&1i32.to_le_bytes());
+        b.push(b'\n');
+    }
+    b.extend_from_slice(format!("$EndMeshFormat\n$Nodes\n{}\n", t.nodes.len()).as_bytes());
+    for (i, p) in t.nodes.iter().enumerate() {
+        if binary {
+            b.extend_from_slice(&(i as i32 + 1).to_le_bytes());
+            for x in p {
+                b.extend_from_slice(&x.to_le_bytes());
+            }
+        } else {
+            b.extend_from_slice(format!("{} {:e} {:e} {:e}\n", i + 1, p[0], p[1], p[2]).as_bytes());
+        }
+    }
+    // One point element (type 15) that must be skipped, then the tets.
+    b.extend_from_slice(format!("$EndNodes\n$Elements\n{}\n", t.tets.len() + 1).as_bytes());
+    if binary {
+        for x in [15i32, 1, 2, 1, 7, 7, 1] {
+            b.extend_from_slice(&x.to_le_bytes());
+        }
+        for x in [4, t.tets.len() as i32, 2] {
+            b.extend_from_slice(&x.to_le_bytes());
+        }
+        for (e, tet) in t.tets.iter().enumerate() {
+            for x in [e as i32 + 2, 1, 1]
+                .into_iter()
+                .chain(tet.iter().map(|&v| v as i32 + 1))
+            {
+                b.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        b.extend_from_slice(b"\n");
+    } else {
+        b.extend_from_slice(b"1 15 2 0 1 1\n");
+        for (e, tet) in t.tets.iter().enumerate() {
+            b.extend_from_slice(
+                format!(
+                    "{} 4 2 1 1 {} {} {} {}\n",
+                    e + 2,
+                    tet[0] + 1,
+                    tet[1] + 1,
+                    tet[2] + 1,
+                    tet[3] + 1
+                )
+                .as_bytes(),
+            );
+        }
+    }
+    b.extend_from_slice(b"$EndElements\n");
+    b
+}
+
+fn msh41(t: &TetMesh, binary: bool) -> Vec<u8> {
+    let n = t.nodes.len();
+    let mut b = format!("$MeshFormat\n4.1 {} 8\n", binary as i32).into_bytes();
+    let u = |b: &mut Vec<u8>, x: u64| b.extend_from_slice(&x.to_le_bytes());
+    let i = |b: &mut Vec<u8>, x: i32| b.extend_from_slice(&x.to_le_bytes());
+    if binary {
+        i(&mut b, 1);
+        b.push(b'\n');
+    }
+    b.extend_from_slice(b"$EndMeshFormat\n$Nodes\n");
+    if binary {
+        for x in [1, n as u64, 1, n as u64] {
+            u(&mut b, x);
+        }
+        for x in [3, 1, 0] {
+            i(&mut b, x);
+        }
+        u(&mut b, n as u64);
+        for k in 0..n {
+            u(&mut b, k as u64 + 1);
+        }
+        for p in &t.nodes {
+            for x in p {
+                b.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        b.extend_from_slice(b"\n$EndNodes\n$Elements\n");
+        for x in [1, t.tets.len() as u64, 1, t.tets.len() as u64] {
+            u(&mut b, x);
+        }
+        for x in [3, 1, 4] {
+            i(&mut b, x);
+        }
+        u(&mut b, t.tets.len() as u64);
+        for (e, tet) in t.tets.iter().enumerate() {
+            u(&mut b, e as u64 + 1);
+            for &v in tet {
+                u(&mut b, v as u64 + 1);
+            }
+        }
+        b.extend_from_slice(b"\n$EndElements\n");
+    } else {
+        let mut s = format!("1 {n} 1 {n}\n3 1 0 {n}\n");
+        for k in 0..n {
+            writeln!(s, "{}", k + 1).unwrap();
+        }
+        for p in &t.nodes {
+            writeln!(s, "{:e} {:e} {:e}", p[0], p[1], p[2]).unwrap();
+        }
+        writeln!(
+            s,
+            "$EndNodes\n$Elements\n1 {0} 1 {0}\n3 1 4 {0}",
+            t.tets.len()
+        )
+        .unwrap();
+        for (e, tet) in t.tets.iter().enumerate() {
+            writeln!(
+                s,
+                "{} {} {} {} {}",
+                e + 1,
+                tet[0] + 1,
+                tet[1] + 1,
+                tet[2] + 1,
+                tet[3] + 1
+            )
+            .unwrap();
+        }
+        s += "$EndElements\n";
+        b.extend_from_slice(s.as_bytes());
+    }
+    b
+}
+
+#[test]
+fn gmsh_22_and_41_ascii_and_binary() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = reference();
+    for (name, bytes) in [
+        ("a22.msh", msh22(&t, false)),
+        ("b22.msh", msh22(&t, true)),
+        ("a41.msh", msh41(&t, false)),
+        ("b41.msh", msh41(&t, true)),
+    ] {
+        let p = dir.path().join(name);
+        std::fs::write(&p, &bytes).unwrap();
+        same_tets(&tets(load_mesh(&p, 1.0).unwrap()), &t);
+        std::fs::write(&p, &bytes[..bytes.len() / 2]).unwrap();
+        assert!(
+            matches!(load_mesh(&p, 1.0), Err(IoError::Parse { .. })),
+            "{name} truncated"
+        );
+    }
+}
+
+#[test]
+fn tetgen_and_medit() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = reference();
+    let mut node = format!("# comment\n{} 3 0 1\n", t.nodes.len());
+    for (i, p) in t.nodes.iter().enumerate() {
+        writeln!(node, "{i} {:e} {:e} {:e} 0", p[0], p[1], p[2]).unwrap();
+    }
+    let mut ele = format!("{} 4 0\n", t.tets.len());
+    for (e, tet) in t.tets.iter().enumerate() {
+        writeln!(ele, "{e} {} {} {} {}", tet[0], tet[1], tet[2], tet[3]).unwrap();
+    }
+    std::fs::write(dir.path().join("m.node"), node).unwrap();
+    std::fs::write(dir.path().join("m.ele"), ele).unwrap();
+    same_tets(
+        &tets(load_mesh(&dir.path().join("m.ele"), 1.0).unwrap()),
+        &t,
+    );
+    same_tets(
+        &tets(load_mesh(&dir.path().join("m.node"), 1.0).unwrap()),
+        &t,
+    );
+
+    let mut s = format!(
+        "MeshVersionFormatted 2\nDimension 3\nVertices\n{}\n",
+        t.nodes.len()
+    );
+    for p in &t.nodes {
+        writeln!(s, "{:e} {:e} {:e} 0", p[0], p[1], p[2]).unwrap();
+    }
+    writeln!(s, "Edges\n1\n1 2 0\nTetrahedra\n{}", t.tets.len()).unwrap();
+    for tet in &t.tets {
+        writeln!(
+            s,
+            "{} {} {} {} 1",
+            tet[0] + 1,
+            tet[1] + 1,
+            tet[2] + 1,
+            tet[3] + 1
+        )
+        .unwrap();
+    }
+    s += "End\n";
+    let p = dir.path().join("m.mesh");
+    std::fs::write(&p, &s).unwrap();
+    same_tets(&tets(load_mesh(&p, 1.0).unwrap()), &t);
+    std::fs::write(&p, s.replace("Tetrahedra", "Pentatopes")).unwrap();
+    let e = load_mesh(&p, 1.0).unwrap_err().to_string();
+    assert!(e.contains("unsupported section 'Pentatopes'"), "{e}");
+}
+
+#[test]
+fn bad_files_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("empty.obj");
+    std::fs::write(&p, b"").unwrap();
+    assert!(load_mesh(&p, 1.0)
+        .unwrap_err()
+        .to_string()
+        .contains("empty"));
+    let p = dir.path().join("junk.msh");
+    std::fs::write(&p, b"hello world\n").unwrap();
+    assert!(load_mesh(&p, 1.0)
+        .unwrap_err()
+        .to_string()
+        .contains("$MeshFormat"));
+    let p = dir.path().join("x.xyz");
+    std::fs::write(&p, b"1").unwrap();
+    assert!(matches!(
+        load_mesh(&p, 1.0),
+        Err(IoError::Unsupported { .. })
+    ));
+    assert!(matches!(
+        load_mesh(Path::new("/nonexistent/a.obj"), 1.0),
+        Err(IoError::Io { .. })
+    ));
+    let p = dir.path().join("bad.obj");
+    std::fs::write(&p, b"v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
+    assert!(load_mesh(&p, 1.0).is_err());
+    assert!(load_mesh(&p, -1.0).is_err());
+}
+
+#[test]
+fn model_file_round_trip_and_corruption() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = ModalModel {
+        material: Material::preset("glass").unwrap(),
+        eigenvalues: vec![1.5e6, 7.25e7],
+        vertices: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.25]],
+        triangles: vec![[0, 1, 2]],
+        shapes: (0..18).map(|i| i as f32 * -0.5).collect(),
+        fem_dofs: 123,
+        fem_elements: 45,
+    };
+    let p = dir.path().join("m.rmodal");
+    model_file::save(&p, &m).unwrap();
+    assert_eq!(model_file::load(&p).unwrap(), m);
+    let bytes = std::fs::read(&p).unwrap();
+    for (what, data) in [
+        ("truncated", bytes[..bytes.len() - 5].to_vec()),
+        ("corrupt", {
+            let mut b = bytes.clone();
+            b[60] ^= 0x55;
+            b
+        }),
+        ("magic", b"NOTMODAL0000000000000000".to_vec()),
+    ] {
+        std::fs::write(&p, &data).unwrap();
+        assert!(model_file::load(&p).is_err(), "{what}");
+    }
+}

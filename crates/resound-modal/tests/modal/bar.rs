@@ -1,0 +1,341 @@
+//! The issue-2 steel bar: 300 × 20 × 10 mm, E = 200 GPa, ν = 0.3, ρ = 7850 kg/m³, as a plain
+//! 12-triangle OBJ-style box, with the default settings.
+
+use crate::timoshenko::Beam;
+use faer::Mat;
+use resound_core::Material;
+use resound_fem::discretize::{box_tets, discretize_surface, VoxelParams};
+use resound_fem::primitive;
+use resound_modal::dense::dense_eigenvalues;
+use resound_modal::eigen::sym_matvec;
+use resound_modal::{
+    compute_modal_model, compute_modal_model_from_tets, solve_generalized, EigenParams, ModalParams,
+};
+use std::collections::HashMap;
+
+const SIZE: [f64; 3] = [0.3, 0.02, 0.01];
+
+fn steel() -> Material {
+    Material::new("steel", 200e9, 0.3, 7850.0).unwrap()
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    BendZ,
+    BendY,
+    Axial,
+    Other,
+}
+
+/// Classifies mode shapes by symmetry of the nodal field about the bar's mid-planes.
+fn classify(nodes: &[[f64; 3]], phi: &[f64]) -> Kind {
+    let key = |p: [f64; 3]| p.map(|x| (x * 1e7).round() as i64);
+    let index: HashMap<[i64; 3], usize> = nodes
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (key(*p), i))
+        .collect();
+    let mirror = |i: usize, axis: usize| {
+        let mut p = nodes[i];
+        p[axis] = -p[axis];
+        index[&key(p)]
+    };
+    let mut energy = [0.0; 3];
+    // parity[c][axis]: correlation of component c with its mirror image across `axis`.
+    let mut parity = [[0.0; 3]; 3];
+    for i in 0..nodes.len() {
+        for c in 0..3 {
+            let u = phi[3 * i + c];
+            energy[c] += u * u;
+            for axis in 0..3 {
+                parity[c][axis] += u * phi[3 * mirror(i, axis) + c];
+            }
+        }
+    }
+    let dom = (0..3)
+        .max_by(|&a, &b| energy[a].total_cmp(&energy[b]))
+        .unwrap();
+    let even = |c: usize, axis: usize| parity[c][axis] > 0.5 * energy[c];
+    let odd = |c: usize, axis: usize| parity[c][axis] < -0.5 * energy[c];
+    match dom {
+        2 if even(2, 1) && even(2, 2) => Kind::BendZ,
+        1 if even(1, 1) && even(1, 2) => Kind::BendY,
+        0 if odd(0, 0) && even(0, 1) && even(0, 2) => Kind::Axial,
+        _ => Kind::Other,
+    }
+}
+
+fn solve_bar(resolution: usize, n_modes: usize) -> (Vec<f64>, Vec<Kind>) {
+    let vp = VoxelParams {
+        resolution,
+        ..Default::default()
+    };
+    let (fem, _) = discretize_surface(&primitive::bar(SIZE), &steel(), &vp).unwrap();
+    let ep = EigenParams {
+        n_eigen: n_modes + 6,
+        shift: -4e6,
+        ..Default::default()
+    };
+    let (lam, phi, _) = solve_generalized(fem.k.as_ref(), fem.m.as_ref(), &ep, &|_| {}).unwrap();
+    let kinds = (6..lam.len())
+        .map(|j| {
+            let col: Vec<f64> = (0..phi.nrows()).map(|i| phi[(i, j)]).collect();
+            classify(&fem.nodes, &col)
+        })
+        .collect();
+    (
+        lam[6..]
+            .iter()
+            .map(|&l| l.sqrt() / (2.0 * std::f64::consts::PI))
+            .collect(),
+        kinds,
+    )
+}
+
+fn first_of(f: &[f64], kinds: &[Kind], kind: Kind, n: usize) -> Vec<f64> {
+    f.iter()
+        .zip(kinds)
+        .filter(|(_, k)| **k == kind)
+        .map(|(f, _)| *f)
+        .take(n)
+        .collect()
+}
+
+#[test]
+fn issue_2_bar_matches_timoshenko_with_default_settings() {
+    let bar = primitive::bar(SIZE);
+    let mat = steel();
+    // Default settings, except asking for enough modes to reach the axial one.
+    let params = ModalParams {
+        max_freq_hz: Some(9000.0),
+        ..Default::default()
+    };
+    let (model, info) = compute_modal_model(&bar, &mat, &params, &|_| {}).unwrap();
+    assert!(info.eigen.max_rel_residual < 1e-3);
+    assert_eq!(info.rigid_modes, 6);
+    // Six near-zero rigid modes.
+    assert!(
+        info.rigid_max_hz < 1e-3 * model.freq_hz(0),
+        "rigid {} Hz",
+        info.rigid_max_hz
+    );
+    // Sturm count certifies that no mode below 9 kHz was missed.
+    assert_eq!(info.eigen.sturm_count, Some(model.n_modes() + 6));
+
+    // Identify mode families on the same default discretization.
+    let res = info.discretize.as_ref().unwrap().resolution;
+    let (f, kinds) = solve_bar(res, model.n_modes());
+    for (a, b) in f.iter().zip(model.freqs_hz()) {
+        assert!((a / b - 1.0).abs() < 1e-6, "{a} vs {b}");
+    }
+    let thin = Beam {
+        length: SIZE[0],
+        e: 200e9,
+        nu: 0.3,
+        rho: 7850.0,
+        b: SIZE[1],
+        h: SIZE[2],
+    };
+    let wide = Beam {
+        b: SIZE[2],
+        h: SIZE[1],
+        ..thin
+    };
+    let t_thin = thin.bending_hz(3, 50.0, 5000.0);
+    let t_wide = wide.bending_hz(1, 50.0, 5000.0);
+    // Reference values quoted in the issue.
+    assert!(
+        (t_thin[0] - 574.0).abs() < 2.0 && (t_wide[0] - 1134.0).abs() < 3.0,
+        "{t_thin:?} {t_wide:?}"
+    );
+    let bz = first_of(&f, &kinds, Kind::BendZ, 3);
+    let by = first_of(&f, &kinds, Kind::BendY, 1);
+    let ax = first_of(&f, &kinds, Kind::Axial, 1);
+    let axial = (200e9f64 / 7850.0).sqrt() / (2.0 * SIZE[0]);
+    let rel = |a: f64, b: f64| (a / b - 1.0).abs();
+    assert!(
+        rel(bz[0], t_thin[0]) < 0.02,
+        "thin f1 {} vs {}",
+        bz[0],
+        t_thin[0]
+    );
+    assert!(
+        rel(by[0], t_wide[0]) < 0.02,
+        "wide f1 {} vs {}",
+        by[0],
+        t_wide[0]
+    );
+    assert!(rel(ax[0], axial) < 0.02, "axial {} vs {axial}", ax[0]);
+    assert!(
+        rel(bz[1], t_thin[1]) < 0.03,
+        "thin f2 {} vs {}",
+        bz[1],
+        t_thin[1]
+    );
+    assert!(
+        rel(bz[2], t_thin[2]) < 0.03,
+        "thin f3 {} vs {}",
+        bz[2],
+        t_thin[2]
+    );
+}
+
+#[test]
+fn frequencies_scale_with_sqrt_e_over_rho_and_inverse_length() {
+    let p = ModalParams {
+        n_modes: Some(8),
+        resolution: 30,
+        ..Default::default()
+    };
+    let (a, _) = compute_modal_model(&primitive::bar(SIZE), &steel(), &p, &|_| {}).unwrap();
+    let other = Material::new("x", 50e9, 0.3, 2000.0).unwrap();
+    let (b, _) = compute_modal_model(&primitive::bar(SIZE), &other, &p, &|_| {}).unwrap();
+    let ratio = ((50e9f64 / 2000.0) / (200e9 / 7850.0)).sqrt();
+    for j in 0..8 {
+        assert!(
+            (b.freq_hz(j) / a.freq_hz(j) - ratio).abs() < 1e-7 * ratio,
+            "mode {j}"
+        );
+    }
+    // Rescaling without a solve agrees with the solve.
+    let r = a.rescaled(&other).unwrap();
+    for j in 0..8 {
+        assert!((r.freq_hz(j) / b.freq_hz(j) - 1.0).abs() < 1e-7);
+    }
+    // Uniform scaling by 2: every frequency halves.
+    let (c, _) = compute_modal_model(
+        &primitive::bar(SIZE.map(|x| 2.0 * x)),
+        &steel(),
+        &p,
+        &|_| {},
+    )
+    .unwrap();
+    for j in 0..8 {
+        assert!(
+            (c.freq_hz(j) * 2.0 / a.freq_hz(j) - 1.0).abs() < 1e-7,
+            "mode {j}"
+        );
+    }
+}
+
+#[test]
+fn sparse_lanczos_agrees_with_dense_solve() {
+    let vp = VoxelParams {
+        resolution: 12,
+        ..Default::default()
+    };
+    let (fem, _) = discretize_surface(&primitive::bar([0.12, 0.03, 0.02]), &steel(), &vp).unwrap();
+    let dense = dense_eigenvalues(fem.k.as_ref(), fem.m.as_ref());
+    let ep = EigenParams {
+        n_eigen: 30,
+        shift: -1e7,
+        ..Default::default()
+    };
+    let (lam, phi, info) = solve_generalized(fem.k.as_ref(), fem.m.as_ref(), &ep, &|_| {}).unwrap();
+    assert_eq!(lam.len(), 30);
+    for j in 6..30 {
+        assert!(
+            (lam[j] / dense[j] - 1.0).abs() < 1e-9,
+            "mode {j}: {} vs {}",
+            lam[j],
+            dense[j]
+        );
+    }
+    // Rigid modes: near zero relative to the first elastic one.
+    for j in 0..6 {
+        assert!(lam[j].abs() < 1e-6 * lam[6], "rigid {j}: {}", lam[j]);
+    }
+    // M-orthonormality φᵀMφ = I.
+    let n = phi.nrows();
+    let mut mphi = Mat::<f64>::zeros(n, 30);
+    for c in 0..30 {
+        let col: Vec<f64> = (0..n).map(|i| phi[(i, c)]).collect();
+        let mut y = vec![0.0; n];
+        sym_matvec(fem.m.as_ref(), &col, &mut y);
+        for i in 0..n {
+            mphi[(i, c)] = y[i];
+        }
+    }
+    for a in 6..30 {
+        for b in 6..30 {
+            let d: f64 = (0..n).map(|i| phi[(i, a)] * mphi[(i, b)]).sum();
+            let want = if a == b { 1.0 } else { 0.0 };
+            assert!((d - want).abs() < 1e-8, "({a},{b}): {d}");
+        }
+    }
+    assert!(info.sturm_count.is_some());
+}
+
+#[test]
+fn first_bending_mode_converges_under_refinement() {
+    let thin = Beam {
+        length: SIZE[0],
+        e: 200e9,
+        nu: 0.3,
+        rho: 7850.0,
+        b: SIZE[1],
+        h: SIZE[2],
+    };
+    let reference = thin.bending_hz(1, 50.0, 2000.0)[0];
+    let errs: Vec<f64> = [15, 30, 60]
+        .iter()
+        .map(|&r| {
+            let (f, kinds) = solve_bar(r, 4);
+            (first_of(&f, &kinds, Kind::BendZ, 1)[0] / reference - 1.0).abs()
+        })
+        .collect();
+    // Each refinement moves closer (to the 3-D answer, which is within ~0.3 % of Timoshenko).
+    assert!(errs[1] < errs[0] && errs[2] <= errs[1] + 1e-3, "{errs:?}");
+    assert!(errs[2] < 0.01, "{errs:?}");
+}
+
+#[test]
+fn quadratic_tet_mesh_is_used_as_is_and_does_not_lock() {
+    let tets = box_tets(SIZE, [30, 2, 1]);
+    let p = ModalParams {
+        n_modes: Some(3),
+        ..Default::default()
+    };
+    let (m, info, _) = compute_modal_model_from_tets(&tets, &steel(), &p, &|_| {}).unwrap();
+    assert_eq!(info.element, "tet10");
+    let thin = Beam {
+        length: SIZE[0],
+        e: 200e9,
+        nu: 0.3,
+        rho: 7850.0,
+        b: SIZE[1],
+        h: SIZE[2],
+    };
+    let reference = thin.bending_hz(1, 50.0, 2000.0)[0];
+    // One tet layer through the 10 mm: linear tets would be far too stiff; tet10 is not.
+    assert!(
+        (m.freq_hz(0) / reference - 1.0).abs() < 0.03,
+        "{} vs {reference}",
+        m.freq_hz(0)
+    );
+}
+
+#[test]
+fn hit_gain_matches_beam_theory_at_the_free_end() {
+    let p = ModalParams {
+        n_modes: Some(6),
+        resolution: 60,
+        ..Default::default()
+    };
+    let (m, _) = compute_modal_model(&primitive::bar(SIZE), &steel(), &p, &|_| {}).unwrap();
+    let total_mass = 7850.0 * SIZE.iter().product::<f64>();
+    // End of the top face: the first (thin-direction) bending mode has |φ| = 2/√m there for a
+    // mass-normalised free–free beam, so |gain| = 2/(√m ω).
+    let sp = m.locate_hit([0.15, 0.0, 0.005], 1e-6).unwrap();
+    assert_eq!(sp.normal, [0.0, 0.0, 1.0]);
+    let g = m.gains(&sp);
+    let w0 = m.eigenvalues[0].sqrt();
+    let want = 2.0 / (total_mass.sqrt() * w0);
+    assert!((g[0].abs() / want - 1.0).abs() < 0.05, "{} vs {want}", g[0]);
+    // The first wide-direction bending mode moves along y: no gain along the z normal.
+    let sp_mid = m.locate_hit([0.0, 0.0, 0.005], 1e-6).unwrap();
+    let gm = m.gains(&sp_mid);
+    assert!(gm[1].abs() < 1e-3 * g[0].abs(), "{}", gm[1]);
+    // Off-surface hit points are refused.
+    assert!(m.locate_hit([0.0, 0.0, 0.5], 0.01).is_err());
+}
