@@ -5,7 +5,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use resound::core::Material;
 use resound::fem::{discretize, primitive, SurfaceMesh};
-use resound::modal::{compute_modal_model_from_fem, ModalParams};
+use resound::modal::{compute_modal_model_from_fem, EigenMethod, ModalParams};
 use serde_json::{json, Value};
 use std::process::Command;
 
@@ -39,6 +39,10 @@ pub struct ModalBenchArgs {
     /// Also certify the count with a Sturm check (one more factorization).
     #[arg(long)]
     pub sturm: bool,
+    /// Also run faer's single-vector Lanczos (the baseline) on cases up to this many DOFs and
+    /// report the speed-up ratio measured in the same run (0: off).
+    #[arg(long, default_value_t = 0)]
+    pub compare_up_to: usize,
 }
 
 /// One case (hidden subcommand).
@@ -56,6 +60,9 @@ pub struct CaseArgs {
     /// Sturm check.
     #[arg(long)]
     pub sturm: bool,
+    /// Use faer's single-vector Lanczos instead of block Lanczos.
+    #[arg(long)]
+    pub faer_lanczos: bool,
 }
 
 fn bench_mesh(name: &str) -> Result<(SurfaceMesh, Material)> {
@@ -104,7 +111,13 @@ pub fn run_case(a: CaseArgs) -> Result<()> {
     };
     let (fem, _) = discretize::discretize_surface(&surface, &material, &vp)?;
     let assemble_s = t0.elapsed().as_secs_f64();
+    let method = if a.faer_lanczos {
+        EigenMethod::Lanczos
+    } else {
+        EigenMethod::BlockLanczos
+    };
     let p = ModalParams {
+        method,
         n_modes: Some(a.modes),
         sturm_check: a.sturm,
         resolution,
@@ -114,6 +127,7 @@ pub fn run_case(a: CaseArgs) -> Result<()> {
     let total_s = t0.elapsed().as_secs_f64();
     let v = json!({
         "mesh": a.mesh,
+        "method": if a.faer_lanczos { "faer-lanczos" } else { "block-lanczos" },
         "material": material.name,
         "target_dofs": a.target_dofs,
         "resolution": resolution,
@@ -137,6 +151,40 @@ pub fn run_case(a: CaseArgs) -> Result<()> {
     Ok(())
 }
 
+fn run_child(
+    exe: &std::path::Path,
+    mesh: &str,
+    dofs: usize,
+    modes: usize,
+    sturm: bool,
+    faer: bool,
+) -> Result<Value> {
+    let mut cmd = Command::new(exe);
+    cmd.args([
+        "bench-case",
+        "--mesh",
+        mesh,
+        "--target-dofs",
+        &dofs.to_string(),
+        "--modes",
+        &modes.to_string(),
+    ]);
+    if sturm {
+        cmd.arg("--sturm");
+    }
+    if faer {
+        cmd.arg("--faer-lanczos");
+    }
+    let out = cmd.output().context("running a benchmark case")?;
+    if !out.status.success() {
+        bail!(
+            "benchmark case {mesh}/{dofs} failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    serde_json::from_slice(&out.stdout).context("parsing a benchmark case")
+}
+
 /// Runs a benchmark.
 pub fn run(c: BenchCmd) -> Result<()> {
     let BenchCmd::Modal(a) = c;
@@ -151,28 +199,17 @@ pub fn run(c: BenchCmd) -> Result<()> {
             if !a.json {
                 eprintln!("bench modal: {mesh} ~{d} DOFs, {} modes ...", a.modes);
             }
-            let mut cmd = Command::new(&exe);
-            cmd.args([
-                "bench-case",
-                "--mesh",
-                mesh,
-                "--target-dofs",
-                &d.to_string(),
-                "--modes",
-                &a.modes.to_string(),
-            ]);
-            if a.sturm {
-                cmd.arg("--sturm");
+            let mut v = run_child(&exe, mesh, d, a.modes, a.sturm, false)?;
+            if d <= a.compare_up_to {
+                if !a.json {
+                    eprintln!("bench modal: {mesh} ~{d} DOFs with faer's single-vector Lanczos (baseline) ...");
+                }
+                let base = run_child(&exe, mesh, d, a.modes, a.sturm, true)?;
+                let ratio = base["total_s"].as_f64().unwrap_or(f64::NAN)
+                    / v["total_s"].as_f64().unwrap_or(f64::NAN);
+                v["baseline_faer_lanczos_total_s"] = base["total_s"].clone();
+                v["speedup_vs_faer_lanczos"] = json!(ratio);
             }
-            let out = cmd.output().context("running a benchmark case")?;
-            if !out.status.success() {
-                bail!(
-                    "benchmark case {mesh}/{d} failed: {}",
-                    String::from_utf8_lossy(&out.stderr)
-                );
-            }
-            let v: Value =
-                serde_json::from_slice(&out.stdout).context("parsing a benchmark case")?;
             rows.push(v);
         }
     }
@@ -192,12 +229,21 @@ pub fn run(c: BenchCmd) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         println!(
-            "{:<5} {:>8} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9}",
-            "mesh", "dofs", "nnz", "nnz(L)", "factor_s", "eigen_s", "total_s", "peak_MiB", "f1_hz"
+            "{:<5} {:>8} {:>9} {:>10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>8}",
+            "mesh",
+            "dofs",
+            "nnz",
+            "nnz(L)",
+            "factor_s",
+            "eigen_s",
+            "total_s",
+            "peak_MiB",
+            "f1_hz",
+            "speedup"
         );
         for r in &rows {
             println!(
-                "{:<5} {:>8} {:>9} {:>10} {:>9.2} {:>9.2} {:>9.2} {:>9.0} {:>9.1}",
+                "{:<5} {:>8} {:>9} {:>10} {:>9.2} {:>9.2} {:>9.2} {:>9.0} {:>9.1} {:>8.2}",
                 r["mesh"].as_str().unwrap_or(""),
                 r["dofs"],
                 r["nnz"],
@@ -207,6 +253,7 @@ pub fn run(c: BenchCmd) -> Result<()> {
                 r["total_s"].as_f64().unwrap_or(f64::NAN),
                 r["peak_rss_mib"].as_f64().unwrap_or(f64::NAN),
                 r["f1_hz"].as_f64().unwrap_or(f64::NAN),
+                r["speedup_vs_faer_lanczos"].as_f64().unwrap_or(f64::NAN),
             );
         }
     }

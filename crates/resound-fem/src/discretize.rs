@@ -146,6 +146,9 @@ pub struct FemModel {
     pub interp_weight: Vec<f64>,
     /// What was adjusted on the way (for users).
     pub notes: Vec<String>,
+    /// A fill-reducing DOF order for the Cholesky factorization (new position → DOF), when
+    /// the mesh structure gives a better one than minimum degree (voxel grids).
+    pub dof_order: Option<Vec<usize>>,
 }
 
 impl FemModel {
@@ -270,6 +273,22 @@ pub fn discretize_surface(
             }
         }
     }
+    let coords: Vec<[u32; 3]> = node_id
+        .iter()
+        .enumerate()
+        .filter(|(_, id)| **id != u32::MAX)
+        .map(|(g, _)| {
+            [
+                (g % px) as u32,
+                ((g / px) % py) as u32,
+                (g / (px * py)) as u32,
+            ]
+        })
+        .collect();
+    let dof_order: Vec<usize> = voxel::nested_dissection(&coords)
+        .into_iter()
+        .flat_map(|n| [3 * n, 3 * n + 1, 3 * n + 2])
+        .collect();
     let h = grid.spacing;
     let ke = hex8i::stiffness(h, material.lame());
     let me = if params.lumped_mass {
@@ -336,6 +355,7 @@ pub fn discretize_surface(
             interp_node,
             interp_weight,
             notes: Vec::new(),
+            dof_order: Some(dof_order),
         },
         report,
     ))
@@ -550,6 +570,7 @@ pub fn discretize_tets(
         interp_node,
         interp_weight: vec![1.0; nv],
         notes,
+        dof_order: None,
     })
 }
 

@@ -245,3 +245,62 @@ mod tests {
         assert!(dropped > 0 && g.count() == before - dropped);
     }
 }
+
+/// Nested-dissection order of grid nodes given by integer grid coordinates: recursively split
+/// the node set by the grid plane at the median of its longest extent; that plane's nodes
+/// separate the two halves exactly (an 8-node hexahedron spans one cell), so they are numbered
+/// last. Returns node indices in elimination order. On 3-D grids this gives less Cholesky fill
+/// than minimum-degree orderings (George 1973).
+pub fn nested_dissection(coords: &[[u32; 3]]) -> Vec<usize> {
+    fn rec(coords: &[[u32; 3]], ids: &mut [usize], out: &mut Vec<usize>) {
+        if ids.len() <= 64 {
+            out.extend_from_slice(ids);
+            return;
+        }
+        let mut lo = [u32::MAX; 3];
+        let mut hi = [0u32; 3];
+        for &i in ids.iter() {
+            for d in 0..3 {
+                lo[d] = lo[d].min(coords[i][d]);
+                hi[d] = hi[d].max(coords[i][d]);
+            }
+        }
+        let axis = (0..3).max_by_key(|&d| hi[d] - lo[d]).unwrap_or(0);
+        if hi[axis] - lo[axis] < 2 {
+            out.extend_from_slice(ids);
+            return;
+        }
+        ids.sort_unstable_by_key(|&i| coords[i][axis]);
+        let mid = coords[ids[ids.len() / 2]][axis].clamp(lo[axis] + 1, hi[axis] - 1);
+        let a = ids.partition_point(|&i| coords[i][axis] < mid);
+        let b = ids.partition_point(|&i| coords[i][axis] <= mid);
+        let (left, rest) = ids.split_at_mut(a);
+        let (sep, right) = rest.split_at_mut(b - a);
+        rec(coords, left, out);
+        rec(coords, right, out);
+        out.extend_from_slice(sep);
+    }
+    let mut ids: Vec<usize> = (0..coords.len()).collect();
+    let mut out = Vec::with_capacity(coords.len());
+    rec(coords, &mut ids, &mut out);
+    out
+}
+
+#[cfg(test)]
+mod nd_tests {
+    use super::nested_dissection;
+
+    #[test]
+    fn nested_dissection_is_a_permutation_with_separator_last() {
+        let coords: Vec<[u32; 3]> = (0..10u32)
+            .flat_map(|k| (0..10u32).flat_map(move |j| (0..20u32).map(move |i| [i, j, k])))
+            .collect();
+        let p = nested_dissection(&coords);
+        let mut s = p.clone();
+        s.sort_unstable();
+        assert_eq!(s, (0..coords.len()).collect::<Vec<_>>());
+        // The top-level separator (a full x-plane of 100 nodes) comes last.
+        let last: Vec<u32> = p[p.len() - 100..].iter().map(|&i| coords[i][0]).collect();
+        assert!(last.iter().all(|&x| x == last[0]));
+    }
+}

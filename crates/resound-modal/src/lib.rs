@@ -17,11 +17,12 @@
 //! The six rigid-body modes of a free object are computed and then dropped.
 #![warn(missing_docs)]
 
+pub mod block_lanczos;
 pub mod dense;
 pub mod eigen;
 pub mod model;
 
-pub use eigen::{solve_generalized, EigenInfo, EigenParams, ModalError, Stage};
+pub use eigen::{solve_generalized, EigenInfo, EigenMethod, EigenParams, ModalError, Stage};
 pub use model::{
     compute_modal_model, compute_modal_model_from_fem, compute_modal_model_from_tets,
     compute_modal_model_keep_fem, ModalParams, ModalSolveInfo, ModelError,

@@ -32,6 +32,8 @@ pub struct ModalParams {
     pub max_modes: usize,
     /// Threads (0: all cores).
     pub threads: usize,
+    /// Krylov method (block Lanczos by default; faer's Lanczos as a baseline).
+    pub method: crate::EigenMethod,
 }
 
 impl Default for ModalParams {
@@ -48,6 +50,7 @@ impl Default for ModalParams {
             tolerance: 1e-3,
             max_modes: 2000,
             threads: 0,
+            method: crate::EigenMethod::BlockLanczos,
         }
     }
 }
@@ -255,6 +258,8 @@ pub fn compute_modal_model_from_fem(
         },
         max_eigen: params.max_modes + rigid,
         sturm_check: params.sturm_check,
+        dof_order: fem.dof_order.clone(),
+        method: params.method,
         par: if params.threads == 0 {
             Par::rayon(0)
         } else if params.threads == 1 {
