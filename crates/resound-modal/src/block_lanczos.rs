@@ -109,9 +109,13 @@ fn next_block(q: MatRef<'_, f64>, w: Mat<f64>, tiny: f64, state: &mut u64) -> (M
 /// the k block inputs passed to `apply` in order (callers that keep a transform of each input,
 /// as shift-invert does with L⁻ᵀQ, get the transformed vectors as (transform) S). Returns the best
 /// available pairs after `max_dim` when fewer than `nev` converged.
+///
+/// `accept(θ, S)` is asked, at each convergence check where every wanted Ritz estimate meets
+/// `tol`, whether the pairs are good enough (e.g. by their true residuals); `true` stops.
 pub fn block_lanczos(
     n: usize,
     apply: &mut dyn FnMut(MatRef<'_, f64>) -> Mat<f64>,
+    accept: &mut dyn FnMut(&[f64], MatRef<'_, f64>) -> bool,
     p: &BlockLanczosParams,
 ) -> (Vec<f64>, Mat<f64>, BlockLanczosInfo) {
     let b = p.block.clamp(1, n.max(1));
@@ -144,7 +148,7 @@ pub fn block_lanczos(
         let (qn, r) = next_block(q.as_ref().subcols(0, k), w, 1e-13 * scale, &mut state);
         t.as_mut().submatrix_mut(k, k - b, b, b).copy_from(&r);
         // Convergence test once the space can hold the wanted pairs, every other block.
-        let check = k >= nev + b && ((k / b).is_multiple_of(3) || k + b > max_dim);
+        let check = k >= nev + b && ((k / b).is_multiple_of(2) || k + b > max_dim);
         if check {
             let tk = Mat::<f64>::from_fn(k, k, |i, j| 0.5 * (t[(i, j)] + t[(j, i)]));
             let Ok(evd) = tk.self_adjoint_eigen(Side::Lower) else {
@@ -169,10 +173,14 @@ pub fn block_lanczos(
                 }
             }
             info.converged = conv;
-            if conv >= nev || k + b > max_dim {
+            let last = k + b > max_dim;
+            if conv >= nev || last {
                 let sel = Mat::<f64>::from_fn(k, nev, |i, c| s[(i, order[c])]);
-                result = Some((order.iter().take(nev).map(|&i| theta[i]).collect(), sel));
-                break;
+                let th: Vec<f64> = order.iter().take(nev).map(|&i| theta[i]).collect();
+                if last || accept(&th, sel.as_ref()) {
+                    result = Some((th, sel));
+                    break;
+                }
             }
         }
         q.as_mut().subcols_mut(k, b).copy_from(&qn);
@@ -205,7 +213,7 @@ mod tests {
             inputs.push(x.to_owned());
             Mat::<f64>::from_fn(x.nrows(), x.ncols(), |i, c| d[i] * x[(i, c)])
         };
-        let (theta, s, info) = block_lanczos(n, &mut apply, &p);
+        let (theta, s, info) = block_lanczos(n, &mut apply, &mut |_, _| true, &p);
         let q = Mat::<f64>::from_fn(n, s.nrows(), |i, c| inputs[c / 4][(i, c % 4)]);
         let y = &q * &s;
         assert_eq!(info.converged, 12, "{info:?}");
