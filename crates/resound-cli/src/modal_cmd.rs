@@ -155,22 +155,10 @@ pub fn run(a: ModalArgs) -> Result<()> {
 type Hit = (Vec<f64>, [f64; 3], [f64; 3], f64);
 
 fn hit_gains(model: &ModalModel, h: [f64; 3]) -> Result<Hit> {
-    let (lo, hi) = bbox(model);
+    let (lo, hi) = resound::core::geometry::bbox(&model.vertices);
     let diag = (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt();
     let sp = model.locate_hit(h, 0.05 * diag)?;
     Ok((model.gains(&sp), sp.point, sp.normal, sp.distance))
-}
-
-fn bbox(m: &ModalModel) -> ([f64; 3], [f64; 3]) {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for v in &m.vertices {
-        for c in 0..3 {
-            lo[c] = lo[c].min(v[c]);
-            hi[c] = hi[c].max(v[c]);
-        }
-    }
-    (lo, hi)
 }
 
 fn summary(model: &ModalModel, info: &ModalSolveInfo, gains: Option<&Hit>) -> Value {

@@ -24,6 +24,22 @@ pub fn norm(a: [f64; 3]) -> f64 {
     dot(a, a).sqrt()
 }
 
+/// Axis-aligned bounding box (min, max) of points; zeros when there are none.
+pub fn bbox(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    if points.is_empty() {
+        return ([0.0; 3], [0.0; 3]);
+    }
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for v in points {
+        for c in 0..3 {
+            lo[c] = lo[c].min(v[c]);
+            hi[c] = hi[c].max(v[c]);
+        }
+    }
+    (lo, hi)
+}
+
 /// Closest point on triangle (a, b, c) to p, as barycentric weights (wa, wb, wc).
 ///
 /// Region-based method (Ericson, *Real-Time Collision Detection*, §5.1.5).

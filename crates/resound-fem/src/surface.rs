@@ -119,18 +119,7 @@ impl RepairReport {
 impl SurfaceMesh {
     /// Axis-aligned bounding box (min, max) in m. Zeros for an empty mesh.
     pub fn bbox(&self) -> ([f64; 3], [f64; 3]) {
-        if self.vertices.is_empty() {
-            return ([0.0; 3], [0.0; 3]);
-        }
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for v in &self.vertices {
-            for c in 0..3 {
-                lo[c] = lo[c].min(v[c]);
-                hi[c] = hi[c].max(v[c]);
-            }
-        }
-        (lo, hi)
+        resound_core::geometry::bbox(&self.vertices)
     }
 
     /// Length of the bounding-box diagonal (m).
