@@ -1,12 +1,14 @@
 //! Shift-invert Lanczos for K φ = λ M φ.
 //!
 //! With K − σM = Pᵀ L Lᵀ P (σ < 0 so the matrix is positive definite even with the rigid-body
-//! modes at λ = 0; fill-reducing P by AMD), the operator A = L⁻¹ P M Pᵀ L⁻ᵀ is symmetric and
-//! A y = θ y ⇔ K φ = λ M φ with φ = Pᵀ L⁻ᵀ y, λ = σ + 1/θ. The lowest λ are the largest θ, the
-//! ones Lanczos finds first. faer's thick-restart Lanczos (`partial_self_adjoint_eigen`) runs on
-//! A; only one factorization is needed. Every returned pair is checked by its true residual
-//! ‖Kφ − λMφ‖ / (λ‖Mφ‖), and with a cutoff the count below it is certified by Sylvester's
-//! inertia of K − λ_cut M (the number of negative pivots of its LDLᵀ factorization).
+//! modes at λ = 0; fill-reducing P by nested dissection on voxel grids, AMD otherwise), the
+//! operator A = L⁻¹ P M Pᵀ L⁻ᵀ is symmetric and A y = θ y ⇔ K φ = λ M φ with φ = Pᵀ L⁻ᵀ y,
+//! λ = σ + 1/θ. The lowest λ are the largest θ, the ones Lanczos finds first. Either our block
+//! Lanczos ([`crate::block_lanczos`], default) or faer's single-vector thick-restart Lanczos
+//! (`partial_self_adjoint_eigen`, [`EigenMethod::Lanczos`]) runs on A; only one factorization is
+//! needed. Every returned pair is checked by its true residual ‖Kφ − λMφ‖ / (λ‖Mφ‖), and the
+//! count below the cutoff (or the last pair) is certified by Sylvester's inertia of K − λ_cut M
+//! (the number of negative pivots of its LDLᵀ factorization).
 
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
