@@ -95,9 +95,11 @@ pub fn fitted_grid(mesh: &SurfaceMesh, resolution: usize) -> ([f64; 3], [f64; 3]
     let hmin = (0..3)
         .map(|c| len[c] / dims[c] as f64)
         .fold(f64::INFINITY, f64::min);
-    for c in 0..3 {
-        let need = (len[c] / (MAX_ASPECT * hmin)).ceil() as usize;
-        dims[c] = dims[c].max(need).max(1);
+    if hmin > 0.0 {
+        for c in 0..3 {
+            let need = (len[c] / (MAX_ASPECT * hmin)).ceil().min(1e6) as usize;
+            dims[c] = dims[c].max(need).max(1);
+        }
     }
     let spacing = [0, 1, 2].map(|c| len[c] / dims[c] as f64);
     (lo, spacing, dims)

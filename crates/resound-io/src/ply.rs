@@ -178,7 +178,14 @@ pub(crate) fn load_ply(path: &Path) -> Result<SurfaceMesh> {
                         }
                     }
                     Prop::List(name, ct, vt) => {
-                        let n = r.value(*ct).ok_or_else(truncated)? as usize;
+                        let n = r.value(*ct).ok_or_else(truncated)?;
+                        if !(0.0..=1024.0).contains(&n) {
+                            return Err(parse_err(
+                                path,
+                                format!("PLY: list of {n} entries (at most 1024 supported)"),
+                            ));
+                        }
+                        let n = n as usize;
                         let mut idx = Vec::with_capacity(n);
                         for _ in 0..n {
                             idx.push(r.value(*vt).ok_or_else(truncated)?);

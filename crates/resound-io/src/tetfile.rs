@@ -214,8 +214,12 @@ pub(crate) fn load_msh(path: &Path) -> Result<LoadedMesh> {
             let mut done = 0;
             while done < n {
                 let t = c.i32().ok_or_else(trunc)?;
-                let count = c.i32().ok_or_else(trunc)? as usize;
-                let ntags = c.i32().ok_or_else(trunc)? as usize;
+                let count = usize::try_from(c.i32().ok_or_else(trunc)?)
+                    .map_err(|_| bad("negative element count"))?;
+                let ntags = usize::try_from(c.i32().ok_or_else(trunc)?)
+                    .ok()
+                    .filter(|&t| t <= 64)
+                    .ok_or_else(|| bad("element tag count outside 0..=64"))?;
                 let nn = gmsh_nodes(t).ok_or_else(|| bad(&format!("unknown element type {t}")))?;
                 for _ in 0..count {
                     let mut v = Vec::with_capacity(1 + ntags + nn);

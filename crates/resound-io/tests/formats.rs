@@ -341,6 +341,25 @@ fn bad_files_are_errors() {
     std::fs::write(&p, b"v 0 0 0\nv 1 0 0\nf 1 2 9\n").unwrap();
     assert!(load_mesh(&p, 1.0).is_err());
     assert!(load_mesh(&p, -1.0).is_err());
+    // Hostile counts are errors, not capacity-overflow panics.
+    let mut b = b"$MeshFormat\n2.2 1 8\n".to_vec();
+    b.extend_from_slice(&1i32.to_le_bytes());
+    b.extend_from_slice(b"\n$EndMeshFormat\n$Nodes\n0\n$EndNodes\n$Elements\n1\n");
+    for x in [4i32, 1, -1] {
+        b.extend_from_slice(&x.to_le_bytes());
+    }
+    let p = dir.path().join("neg.msh");
+    std::fs::write(&p, &b).unwrap();
+    assert!(load_mesh(&p, 1.0)
+        .unwrap_err()
+        .to_string()
+        .contains("tag count"));
+    let p = dir.path().join("huge.ply");
+    std::fs::write(&p, "ply\nformat ascii 1.0\nelement vertex 0\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n1e18 0 1 2\n").unwrap();
+    assert!(load_mesh(&p, 1.0)
+        .unwrap_err()
+        .to_string()
+        .contains("at most 1024"));
 }
 
 #[test]

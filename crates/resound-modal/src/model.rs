@@ -208,6 +208,12 @@ fn check_params(p: &ModalParams) -> Result<(), ModelError> {
     if p.n_modes == Some(0) {
         return Err(ModelError::Params("--modes must be at least 1".into()));
     }
+    if let Some(n) = p.n_modes.filter(|&n| n > p.max_modes) {
+        return Err(ModelError::Params(format!(
+            "--modes {n} is more than the supported {} (the Krylov space grows as 3x the modes)",
+            p.max_modes
+        )));
+    }
     if p.resolution > 2000 {
         return Err(ModelError::Params(format!(
             "resolution {} is absurd (at most 2000)",

@@ -84,6 +84,19 @@ fn bad_meshes_and_materials() {
     )
     .is_err());
     let p = ModalParams {
+        n_modes: Some(1_000_000),
+        ..Default::default()
+    };
+    let e = compute_modal_model(
+        &primitive::bar([0.1, 0.1, 0.1]),
+        &Material::preset("steel").unwrap(),
+        &p,
+        &|_| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("more than the supported"), "{e}");
+    let p = ModalParams {
         max_freq_hz: Some(-1.0),
         ..Default::default()
     };
