@@ -15,10 +15,12 @@
 //! - Damping: amplitude ∝ e^(−decay·t); Rayleigh C = αM + βK, α in 1/s, β in s.
 #![warn(missing_docs)]
 
+pub mod damped;
 pub mod geometry;
 pub mod material;
 pub mod modal_model;
 pub mod units;
 
+pub use damped::DampedMode;
 pub use material::{Material, MaterialError};
 pub use modal_model::{ModalModel, ModalModelError};

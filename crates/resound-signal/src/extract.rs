@@ -1,0 +1,407 @@
+//! Stage 1 of recording analysis: Ren 2013 §4 feature extraction on multi-level spectrograms.
+//!
+//! 1. Complex spectrograms at `levels` window lengths, each doubling the frequency resolution of
+//!    the one before ([`Spectrogram`]).
+//! 2. Global peak search: local maxima along frequency of every level's per-bin maximum over
+//!    frames, above that level's noise floor. All peaks of all levels go in one priority queue,
+//!    ordered by the amplitude they imply.
+//! 3. Greedy local shape fitting from the strongest peak: the mode's (f, d) are found by
+//!    Nelder–Mead (argmin) on the residual of its closed-form "hill" ([`mode_basis`]) against a
+//!    patch of ±2 bins × up to 16 frames; amplitude and phase are the linear least-squares
+//!    solution for each (f, d) (variable projection). A fit whose relative residual exceeds
+//!    `fit_tolerance` means this level cannot resolve the mode and the peak is discarded — the
+//!    same mode is then taken from another level (dynamic level choice).
+//! 4. Accepted modes are subtracted, in the complex domain and in closed form, from every level,
+//!    so weaker modes next to strong ones are fitted on what the strong ones left.
+//!
+//! The result seeds [`crate::refine`], which brings it to the noise limit.
+
+use crate::stft::{mode_basis_column, Spectrogram};
+use argmin::core::{CostFunction, Error as ArgminError, Executor};
+use argmin::solver::neldermead::NelderMead;
+use realfft::num_complex::Complex64;
+use resound_core::DampedMode;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Settings of [`extract_modes`].
+#[derive(Clone, Debug)]
+pub struct ExtractParams {
+    /// Shortest window (level 0) in samples.
+    pub min_window: usize,
+    /// Number of levels; level `l` has window `min_window · 2^l`.
+    pub levels: usize,
+    /// Stop after this many modes.
+    pub max_modes: usize,
+    /// Ignore peaks weaker than this many dB below the strongest mode found.
+    pub min_db: f64,
+    /// Peaks must stand this many dB above the level's noise floor.
+    pub noise_margin_db: f64,
+    /// Largest accepted relative residual of a local shape fit.
+    pub fit_tolerance: f64,
+}
+
+impl Default for ExtractParams {
+    fn default() -> Self {
+        Self {
+            min_window: 256,
+            levels: 7,
+            max_modes: 64,
+            min_db: 60.0,
+            noise_margin_db: 10.0,
+            fit_tolerance: 0.25,
+        }
+    }
+}
+
+/// A mode found by [`extract_modes`] and the level it was fitted at.
+#[derive(Clone, Copy, Debug)]
+pub struct ExtractedMode {
+    /// The damped sinusoid.
+    pub mode: DampedMode,
+    /// Window length of the level the shape fit used.
+    pub window_len: usize,
+    /// Relative residual of the shape fit.
+    pub fit_residual: f64,
+}
+
+#[derive(PartialEq)]
+struct Candidate {
+    amplitude: f64,
+    level: usize,
+    bin: usize,
+}
+impl Eq for Candidate {}
+impl PartialOrd for Candidate {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Candidate {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.amplitude.total_cmp(&other.amplitude)
+    }
+}
+
+/// Per-level working state.
+struct Level {
+    spec: Spectrogram,
+    /// Noise power per cell (|X|²), from the median of all cells.
+    noise_power: f64,
+}
+
+/// Computes the spectrogram levels that fit in `x`.
+pub fn spectrogram_levels(
+    x: &[f64],
+    sample_rate_hz: f64,
+    params: &ExtractParams,
+) -> Vec<Spectrogram> {
+    use rayon::prelude::*;
+    (0..params.levels)
+        .into_par_iter()
+        .filter_map(|l| Spectrogram::compute(x, sample_rate_hz, params.min_window << l))
+        .collect()
+}
+
+/// Median of |X|² over all cells, divided by ln 2 (the median of an exponential variable):
+/// the noise power per cell when most cells hold noise only.
+fn noise_power(spec: &Spectrogram) -> f64 {
+    let mut p: Vec<f64> = spec.data.iter().map(|c| c.norm_sqr()).collect();
+    let mid = p.len() / 2;
+    p.select_nth_unstable_by(mid, f64::total_cmp);
+    p[mid] / std::f64::consts::LN_2
+}
+
+/// Stage-1 extraction of damped sinusoids from the onset-aligned signal `x`.
+/// `known` are modes found before (already removed from `x`): peaks that look like their
+/// leftovers are skipped. `reference_amplitude` sets the level `min_db` is measured from
+/// (default: the strongest mode found here).
+pub fn extract_modes(
+    x: &[f64],
+    sample_rate_hz: f64,
+    params: &ExtractParams,
+    known: &[DampedMode],
+    reference_amplitude: Option<f64>,
+) -> Vec<ExtractedMode> {
+    let mut levels: Vec<Level> = spectrogram_levels(x, sample_rate_hz, params)
+        .into_iter()
+        .map(|spec| {
+            let noise_power = noise_power(&spec);
+            Level { spec, noise_power }
+        })
+        .collect();
+    if levels.is_empty() {
+        return Vec::new();
+    }
+    let margin = 10f64.powf(params.noise_margin_db / 10.0);
+    let mut heap = BinaryHeap::new();
+    for (li, level) in levels.iter().enumerate() {
+        let spec = &level.spec;
+        let threshold = level.noise_power * ((spec.frames as f64).ln() + 1.0) * margin;
+        let peak: Vec<f64> = (0..spec.bins)
+            .map(|k| {
+                (0..spec.frames)
+                    .map(|m| spec.at(m, k).norm_sqr())
+                    .fold(0.0, f64::max)
+            })
+            .collect();
+        let mut found: Vec<Candidate> = (1..spec.bins - 1)
+            .filter(|&k| peak[k] > peak[k - 1] && peak[k] >= peak[k + 1] && peak[k] > threshold)
+            .map(|k| Candidate {
+                amplitude: peak[k].sqrt() * spec.amplitude_scale(),
+                level: li,
+                bin: k,
+            })
+            .collect();
+        found.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
+        found.truncate(4 * params.max_modes.max(16));
+        heap.extend(found);
+    }
+
+    let mut out: Vec<ExtractedMode> = Vec::new();
+    let mut strongest = reference_amplitude.unwrap_or(0.0);
+    let min_ratio = 10f64.powf(-params.min_db / 20.0);
+    while let Some(c) = heap.pop() {
+        if out.len() >= params.max_modes || c.amplitude < strongest * min_ratio {
+            break;
+        }
+        let level = &levels[c.level];
+        let spec = &level.spec;
+        // Lazy update: the residual may have shrunk since this peak was queued.
+        let now = (0..spec.frames.min(4))
+            .map(|m| spec.at(m, c.bin).norm_sqr())
+            .fold(0.0, f64::max)
+            .max(
+                (0..spec.frames)
+                    .map(|m| spec.at(m, c.bin).norm_sqr())
+                    .fold(0.0, f64::max),
+            );
+        let still_peak = c.bin > 0
+            && c.bin + 1 < spec.bins
+            && (0..spec.frames).any(|m| {
+                let p = spec.at(m, c.bin).norm_sqr();
+                p >= spec.at(m, c.bin - 1).norm_sqr() && p >= spec.at(m, c.bin + 1).norm_sqr()
+            });
+        let amp_now = now.sqrt() * spec.amplitude_scale();
+        let threshold = level.noise_power * ((spec.frames as f64).ln() + 1.0) * margin;
+        if !still_peak || now <= threshold {
+            continue;
+        }
+        if amp_now < 0.9 * c.amplitude {
+            heap.push(Candidate {
+                amplitude: amp_now,
+                ..c
+            });
+            continue;
+        }
+        // Residue of a mode already taken: skip it.
+        let bin_hz = spec.bin_width_hz();
+        let f_peak = spec.bin_hz(c.bin);
+        if out
+            .iter()
+            .map(|e| &e.mode)
+            .chain(known)
+            .any(|m| (m.freq_hz - f_peak).abs() < 2.0 * bin_hz && m.amplitude > 30.0 * amp_now)
+        {
+            continue;
+        }
+        let Some((mode, residual)) = fit_peak(spec, level.noise_power, c.bin) else {
+            continue;
+        };
+        // A fitted amplitude far above the peak it came from is a runaway fit.
+        if residual > params.fit_tolerance
+            || !crate::plausible(mode.freq_hz, mode.damping_per_s, sample_rate_hz)
+            || mode.amplitude > 20.0 * amp_now
+        {
+            continue;
+        }
+        strongest = strongest.max(mode.amplitude);
+        let floor = 1e-4 * (level.noise_power.sqrt() * spec.amplitude_scale()).max(1e-12);
+        let window_len = spec.window_len;
+        for l in levels.iter_mut() {
+            l.spec.subtract_mode(&mode, floor);
+        }
+        out.push(ExtractedMode {
+            mode,
+            window_len,
+            fit_residual: residual,
+        });
+    }
+    out.retain(|e| e.mode.amplitude >= strongest * min_ratio);
+    out.sort_by(|a, b| a.mode.freq_hz.total_cmp(&b.mode.freq_hz));
+    out
+}
+
+/// The local patch of one peak.
+struct Patch<'a> {
+    spec: &'a Spectrogram,
+    bins: std::ops::RangeInclusive<usize>,
+    frames: usize,
+}
+
+impl Patch<'_> {
+    /// Best amplitude and phase for (f, d) and the relative residual.
+    fn solve(&self, freq_hz: f64, damping: f64) -> (Complex64, f64) {
+        let (mut g11, mut g12, mut g22, mut b1, mut b2, mut xx) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        for k in self.bins.clone() {
+            let [mut p, mut q, ps, qs] = mode_basis_column(self.spec, freq_hz, damping, k);
+            for m in 0..self.frames {
+                let c1 = p + q;
+                let c2 = Complex64::new(0.0, 1.0) * (p - q);
+                let x = self.spec.at(m, k);
+                g11 += c1.norm_sqr();
+                g22 += c2.norm_sqr();
+                g12 += (c1.conj() * c2).re;
+                b1 += (c1.conj() * x).re;
+                b2 += (c2.conj() * x).re;
+                xx += x.norm_sqr();
+                p *= ps;
+                q *= qs;
+            }
+        }
+        let det = g11 * g22 - g12 * g12;
+        if !(det > 0.0) || !(xx > 0.0) {
+            return (Complex64::new(0.0, 0.0), f64::INFINITY);
+        }
+        let u = (g22 * b1 - g12 * b2) / det;
+        let v = (g11 * b2 - g12 * b1) / det;
+        // Residual of a linear LS fit: |x|² − bᵀ·coef.
+        let res = (xx - (u * b1 + v * b2)).max(0.0) / xx;
+        (Complex64::new(u, v), res)
+    }
+}
+
+struct PatchCost<'a>(&'a Patch<'a>);
+
+impl CostFunction for PatchCost<'_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, p: &Self::Param) -> Result<f64, ArgminError> {
+        let d = p[1].exp();
+        let (_, r) = self.0.solve(p[0], d);
+        Ok(if r.is_finite() { r } else { 1e300 })
+    }
+}
+
+/// Local shape fit at (`spec`, `bin`): returns the mode and the relative residual.
+fn fit_peak(spec: &Spectrogram, noise_power: f64, bin: usize) -> Option<(DampedMode, f64)> {
+    let fs = spec.sample_rate_hz;
+    // Frames: from the onset while the peak bin stands 10 dB above the noise, at most 16.
+    let mut frames = 1;
+    while frames < spec.frames.min(16) && spec.at(frames, bin).norm_sqr() > 10.0 * noise_power {
+        frames += 1;
+    }
+    let lo = bin.saturating_sub(2).max(1);
+    let hi = (bin + 2).min(spec.bins - 2);
+    let patch = Patch {
+        spec,
+        bins: lo..=hi,
+        frames,
+    };
+
+    // Initial frequency: parabolic interpolation of log power at the strongest frame.
+    let mpk = (0..frames)
+        .max_by(|&a, &b| {
+            spec.at(a, bin)
+                .norm_sqr()
+                .total_cmp(&spec.at(b, bin).norm_sqr())
+        })
+        .unwrap_or(0);
+    let lp = |k: usize| spec.at(mpk, k).norm_sqr().max(1e-300).ln();
+    let (ym, y0, yp) = (lp(bin - 1), lp(bin), lp(bin + 1));
+    let denom = ym - 2.0 * y0 + yp;
+    let delta = if denom < 0.0 {
+        (0.5 * (ym - yp) / denom).clamp(-0.5, 0.5)
+    } else {
+        0.0
+    };
+    let f0 = (bin as f64 + delta) * spec.bin_width_hz();
+    // Initial damping: slope of log magnitude over the patch frames.
+    let d0 = if frames >= 2 {
+        let a0 = spec.at(0, bin).norm().max(1e-300).ln();
+        let a1 = spec.at(frames - 1, bin).norm().max(1e-300).ln();
+        let dt = spec.frame_start_s(frames - 1);
+        ((a0 - a1) / dt).clamp(0.05, 20_000.0)
+    } else {
+        2.0 * fs / spec.window_len as f64
+    };
+    let bw = spec.bin_width_hz();
+    let simplex = vec![
+        vec![f0, d0.ln()],
+        vec![f0 + 0.3 * bw, d0.ln()],
+        vec![f0, d0.ln() + 0.7],
+    ];
+    let solver = NelderMead::new(simplex).with_sd_tolerance(1e-10).ok()?;
+    let res = Executor::new(PatchCost(&patch), solver)
+        .configure(|s| s.max_iters(150))
+        .run()
+        .ok()?;
+    let best = res.state.best_param.clone()?;
+    let (f, d) = (best[0], best[1].exp());
+    let (amp, r) = patch.solve(f, d);
+    if !(r.is_finite() && amp.norm() > 0.0) {
+        return None;
+    }
+    let mode = DampedMode {
+        freq_hz: f,
+        damping_per_s: d,
+        amplitude: amp.norm(),
+        phase_rad: amp.arg(),
+    };
+    Some((mode, r))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use resound_core::damped::synthesize;
+
+    #[test]
+    fn finds_three_modes_noise_free() {
+        let fs = 44100.0;
+        let truth = [
+            DampedMode {
+                freq_hz: 523.0,
+                damping_per_s: 4.0,
+                amplitude: 0.5,
+                phase_rad: 0.2,
+            },
+            DampedMode {
+                freq_hz: 1771.0,
+                damping_per_s: 40.0,
+                amplitude: 0.2,
+                phase_rad: -1.0,
+            },
+            DampedMode {
+                freq_hz: 6100.0,
+                damping_per_s: 300.0,
+                amplitude: 0.3,
+                phase_rad: 2.0,
+            },
+        ];
+        let x = synthesize(&truth, fs, 44100);
+        let found = extract_modes(&x, fs, &ExtractParams::default(), &[], None);
+        for t in truth {
+            let best = found
+                .iter()
+                .min_by(|a, b| {
+                    (a.mode.freq_hz - t.freq_hz)
+                        .abs()
+                        .total_cmp(&(b.mode.freq_hz - t.freq_hz).abs())
+                })
+                .unwrap();
+            assert!(
+                (best.mode.freq_hz / t.freq_hz - 1.0).abs() < 1e-3,
+                "{t:?} vs {best:?}"
+            );
+            assert!(
+                (best.mode.damping_per_s / t.damping_per_s - 1.0).abs() < 0.05,
+                "{t:?} vs {best:?}"
+            );
+            assert!(
+                (best.mode.amplitude / t.amplitude - 1.0).abs() < 0.05,
+                "{t:?} vs {best:?}"
+            );
+        }
+    }
+}
