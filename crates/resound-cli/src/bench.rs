@@ -19,6 +19,32 @@ const SPOT_SCALE: f64 = 0.15;
 pub enum BenchCmd {
     /// Modal analysis: the steel bar and the Spot mesh at ~10k, ~30k, ~100k DOFs, 200 modes.
     Modal(ModalBenchArgs),
+    /// Recording analysis: Ren's 100-sinusoid protocol, noisy mixtures against the Cramér–Rao
+    /// bound, time per second of audio; stage 1 alone (Ren's method) for comparison.
+    Analyze(AnalyzeBenchArgs),
+}
+
+/// Arguments of `bench analyze`.
+#[derive(Args, Debug)]
+pub struct AnalyzeBenchArgs {
+    /// JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Single damped sinusoids (protocol 1).
+    #[arg(long, default_value_t = 100)]
+    pub trials: usize,
+    /// Mixtures per SNR (protocol 2).
+    #[arg(long, default_value_t = 40)]
+    pub mixtures: usize,
+    /// SNRs of protocol 2, dB.
+    #[arg(long, default_value = "60,40,25")]
+    pub snr_db: String,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Skip the stage-1-only (Ren 2013 alone) comparison rows.
+    #[arg(long)]
+    pub no_stage1: bool,
 }
 
 /// Arguments of `bench modal`.
@@ -187,7 +213,10 @@ fn run_child(
 
 /// Runs a benchmark.
 pub fn run(c: BenchCmd) -> Result<()> {
-    let BenchCmd::Modal(a) = c;
+    let a = match c {
+        BenchCmd::Modal(a) => a,
+        BenchCmd::Analyze(a) => return run_analyze(a),
+    };
     let exe = std::env::current_exe().context("locating the resound binary")?;
     let dofs: Vec<usize> = crate::util::parse_list(&a.dofs)?
         .iter()
@@ -256,6 +285,91 @@ pub fn run(c: BenchCmd) -> Result<()> {
                 r["speedup_vs_faer_lanczos"].as_f64().unwrap_or(f64::NAN),
             );
         }
+    }
+    Ok(())
+}
+
+fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
+    use resound::signal::benchmark::{mixtures, single_sinusoids};
+    use resound::signal::AnalyzeParams;
+    let snrs = a
+        .snr_db
+        .split(',')
+        .map(|s| {
+            s.trim()
+                .parse::<f64>()
+                .with_context(|| format!("bad SNR '{s}'"))
+        })
+        .collect::<Result<Vec<f64>>>()?;
+    let mut methods = vec![("refined", AnalyzeParams::default())];
+    if !a.no_stage1 {
+        methods.push((
+            "stage1",
+            AnalyzeParams {
+                refine: false,
+                ..AnalyzeParams::default()
+            },
+        ));
+    }
+    let mut out = serde_json::Map::new();
+    out.insert("benchmark".into(), json!("analyze"));
+    for (name, params) in &methods {
+        if !a.json {
+            eprintln!("bench analyze [{name}]: {} single sinusoids ...", a.trials);
+        }
+        let single = single_sinusoids(a.trials, a.seed, params);
+        let mut mix = Vec::new();
+        for &snr in &snrs {
+            if !a.json {
+                eprintln!(
+                    "bench analyze [{name}]: {} mixtures at {snr} dB SNR ...",
+                    a.mixtures
+                );
+            }
+            mix.push(mixtures(snr, a.mixtures, a.seed + 1, params));
+        }
+        let secs: f64 =
+            mix.iter().map(|m| m.seconds_per_audio_second).sum::<f64>() / mix.len().max(1) as f64;
+        if !a.json {
+            println!(
+                "[{name}] protocol 1 (Ren 2013, {} noise-free single modes, 44.1 kHz, 1 s):",
+                single.trials
+            );
+            println!(
+                "  mean error f {:.2e} %  d {:.2e} %  (max {:.2e} %, {:.2e} %), missed {}, {:.3} s per s of audio",
+                single.mean_freq_error_pct,
+                single.mean_damping_error_pct,
+                single.max_freq_error_pct,
+                single.max_damping_error_pct,
+                single.missed,
+                single.seconds_per_audio_second
+            );
+            println!("[{name}] protocol 2 (mixtures of 1-24 modes, white noise):");
+            println!(
+                "  {:>6} {:>7} {:>9} {:>10} {:>12} {:>12} {:>10}",
+                "SNR_dB", "modes", "recall", "spurious", "f_err/CRB", "d_err/CRB", "s/s audio"
+            );
+            for m in &mix {
+                println!(
+                    "  {:>6.0} {:>7} {:>9.3} {:>10.3} {:>12.2} {:>12.2} {:>10.3}",
+                    m.snr_db,
+                    m.reference_modes,
+                    m.recall,
+                    m.spurious,
+                    m.median_freq_error_over_crb,
+                    m.median_damping_error_over_crb,
+                    m.seconds_per_audio_second
+                );
+            }
+            println!("[{name}] mean analysis time per second of audio (mixtures): {secs:.3} s");
+        }
+        out.insert(
+            (*name).to_string(),
+            json!({"single": single, "mixtures": mix, "seconds_per_audio_second": secs}),
+        );
+    }
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&Value::Object(out))?);
     }
     Ok(())
 }

@@ -6,9 +6,11 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod analyze_cmd;
 mod bench;
 mod mesh_cmd;
 mod modal_cmd;
+mod plot;
 mod util;
 
 /// Resound: find the material behind a recorded strike and make any object of it sound right.
@@ -31,6 +33,8 @@ enum Command {
     /// Make, inspect and check meshes (primitives, repair report).
     #[command(subcommand)]
     Mesh(mesh_cmd::MeshCmd),
+    /// Find the damped sinusoids (frequency, damping, amplitude, phase) of a recorded strike.
+    Analyze(analyze_cmd::AnalyzeArgs),
     /// Inspect a saved modal model, optionally rescaled to another material or at a hit point.
     Model(modal_cmd::ModelInfoArgs),
     /// Run the benchmarks and print their figures (table or JSON).
@@ -47,6 +51,7 @@ fn main() -> ExitCode {
         Command::Modal(a) => modal_cmd::run(a),
         Command::Mesh(c) => mesh_cmd::run(c),
         Command::Model(a) => modal_cmd::run_info(a),
+        Command::Analyze(a) => analyze_cmd::run(a),
         Command::Bench(c) => bench::run(c),
         Command::BenchCase(a) => bench::run_case(a),
     };

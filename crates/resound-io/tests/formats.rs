@@ -391,3 +391,5 @@ fn model_file_round_trip_and_corruption() {
         assert!(model_file::load(&p).is_err(), "{what}");
     }
 }
+#[path = "formats/audio.rs"]
+mod audio;

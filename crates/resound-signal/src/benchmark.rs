@@ -63,10 +63,9 @@ pub struct MixtureReport {
 const FS: f64 = 44100.0;
 
 /// Runs protocol 1 with `trials` signals from `seed`.
-pub fn single_sinusoids(trials: usize, seed: u64) -> SingleReport {
+pub fn single_sinusoids(trials: usize, seed: u64, params: &AnalyzeParams) -> SingleReport {
     let mut rng = SmallRng::seed_from_u64(seed);
     let n = FS as usize;
-    let params = AnalyzeParams::default();
     let (mut ef, mut ed, mut mf, mut md, mut missed) = (0.0, 0.0, 0.0f64, 0.0f64, 0);
     let mut elapsed = 0.0;
     for _ in 0..trials {
@@ -78,7 +77,7 @@ pub fn single_sinusoids(trials: usize, seed: u64) -> SingleReport {
         };
         let x = synthesize(&[truth], FS, n);
         let t0 = Instant::now();
-        let res = analyze(&x, FS, &params);
+        let res = analyze(&x, FS, params);
         elapsed += t0.elapsed().as_secs_f64();
         let best = res.ok().and_then(|a| {
             a.modes
@@ -140,10 +139,9 @@ pub fn random_mixture(rng: &mut SmallRng, k: usize) -> Vec<DampedMode> {
 }
 
 /// Runs protocol 2 at `snr_db` with `trials` mixtures from `seed`.
-pub fn mixtures(snr_db: f64, trials: usize, seed: u64) -> MixtureReport {
+pub fn mixtures(snr_db: f64, trials: usize, seed: u64, params: &AnalyzeParams) -> MixtureReport {
     let mut rng = SmallRng::seed_from_u64(seed);
     let n = FS as usize;
-    let params = AnalyzeParams::default();
     let (mut reference, mut recalled, mut found_total, mut spurious) =
         (0usize, 0usize, 0usize, 0usize);
     let (mut rf, mut rd, mut pf) = (Vec::new(), Vec::new(), Vec::new());
@@ -158,9 +156,7 @@ pub fn mixtures(snr_db: f64, trials: usize, seed: u64) -> MixtureReport {
             Normal::new(0.0, sigma).unwrap_or_else(|_| Normal::new(0.0, 1e-12).expect("valid"));
         let x: Vec<f64> = clean.iter().map(|v| v + normal.sample(&mut rng)).collect();
         let t0 = Instant::now();
-        let found = analyze(&x, FS, &params)
-            .map(|a| a.modes)
-            .unwrap_or_default();
+        let found = analyze(&x, FS, params).map(|a| a.modes).unwrap_or_default();
         elapsed += t0.elapsed().as_secs_f64();
         let bounds = cramer_rao(&truth, FS, n, sigma);
         let strongest = truth.iter().map(|m| m.amplitude).fold(0.0, f64::max);

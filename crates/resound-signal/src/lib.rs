@@ -21,6 +21,7 @@ pub mod extract;
 pub mod filter;
 pub mod onset;
 pub mod refine;
+pub mod resample;
 pub mod stft;
 
 /// Lowest frequency a mode may have, Hz (below the audible range).

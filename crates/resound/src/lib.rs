@@ -13,10 +13,11 @@ pub use resound_core as core;
 pub use resound_fem as fem;
 pub use resound_io as io;
 pub use resound_modal as modal;
+pub use resound_signal as signal;
 
 /// The types most programs need.
 pub mod prelude {
-    pub use resound_core::{Material, ModalModel};
+    pub use resound_core::{DampedMode, Material, ModalModel};
     pub use resound_fem::{primitive, SurfaceMesh, TetMesh};
     pub use resound_modal::{ModalParams, ModalSolveInfo};
 }

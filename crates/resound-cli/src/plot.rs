@@ -1,0 +1,198 @@
+//! PNG pictures of analyses (plotters, bitmap backend, bundled DejaVu Sans).
+
+use anyhow::{anyhow, Result};
+use plotters::prelude::*;
+use resound::io::atomic::write_atomic;
+use resound::signal::stft::Spectrogram;
+use resound::signal::Analysis;
+use std::path::Path;
+
+static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
+
+fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // The bundled font is valid; a failure would only lose the labels.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// Perceptual-ish colour map from dark blue through orange to yellow; `v` in [0, 1].
+fn colour(v: f64) -> RGBColor {
+    let v = v.clamp(0.0, 1.0);
+    let stops = [
+        (10.0, 10.0, 40.0),
+        (90.0, 30.0, 120.0),
+        (200.0, 60.0, 60.0),
+        (250.0, 160.0, 30.0),
+        (252.0, 250.0, 160.0),
+    ];
+    let x = v * (stops.len() - 1) as f64;
+    let i = (x.floor() as usize).min(stops.len() - 2);
+    let t = x - i as f64;
+    let (a, b) = (stops[i], stops[i + 1]);
+    RGBColor(
+        (a.0 + t * (b.0 - a.0)) as u8,
+        (a.1 + t * (b.1 - a.1)) as u8,
+        (a.2 + t * (b.2 - a.2)) as u8,
+    )
+}
+
+/// Spectrogram of `seg` (onset-aligned) with the modes marked, and the (f, d) feature plane
+/// (Ren 2013 Fig. 3 and 6), written atomically to `path`.
+pub fn analysis_png(path: &Path, seg: &[f64], res: &Analysis, title: &str) -> Result<()> {
+    register_font();
+    let (w, h) = (1400u32, 620u32);
+    let mut pixels = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
+        let (left, right) = root.split_horizontally(820);
+        draw_spectrogram(&left, seg, res, title).map_err(|e| anyhow!("plot: {e}"))?;
+        draw_features(&right, res).map_err(|e| anyhow!("plot: {e}"))?;
+        root.present().map_err(|e| anyhow!("plot: {e}"))?;
+    }
+    let img = image_png(&pixels, w, h)?;
+    write_atomic(path, |out| out.write_all(&img))?;
+    Ok(())
+}
+
+/// Encodes RGB pixels as PNG through plotters' bitmap encoder (via a temporary file).
+fn image_png(pixels: &[u8], w: u32, h: u32) -> Result<Vec<u8>> {
+    let dir = tempfile::tempdir()?;
+    let p = dir.path().join("plot.png");
+    {
+        let root = BitMapBackend::new(&p, (w, h)).into_drawing_area();
+        let src = BitMapElement::with_owned_buffer((0, 0), (w, h), pixels.to_vec())
+            .ok_or_else(|| anyhow!("plot buffer has the wrong size"))?;
+        root.draw(&src).map_err(|e| anyhow!("plot: {e}"))?;
+        root.present().map_err(|e| anyhow!("plot: {e}"))?;
+    }
+    Ok(std::fs::read(&p)?)
+}
+
+type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+fn draw_spectrogram(
+    area: &Area<'_>,
+    seg: &[f64],
+    res: &Analysis,
+    title: &str,
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    let fs = res.sample_rate_hz;
+    let window = if seg.len() >= 4096 {
+        2048
+    } else {
+        (seg.len() / 2).next_power_of_two().max(64) / 2
+    };
+    let Some(spec) = Spectrogram::compute(seg, fs, window) else {
+        return Ok(());
+    };
+    let f_top = res
+        .modes
+        .iter()
+        .map(|m| m.freq_hz)
+        .fold(0.0, f64::max)
+        .mul_add(1.25, 200.0)
+        .min(0.5 * fs);
+    // Show until the longest-ringing mode has decayed by 60 dB (at least 0.1 s).
+    let t60_max = res
+        .modes
+        .iter()
+        .map(|m| 3.0 * std::f64::consts::LN_10 / m.damping_per_s)
+        .fold(0.1, f64::max);
+    let t_end = (seg.len() as f64 / fs).min(1.1 * t60_max);
+    let mut chart = ChartBuilder::on(area)
+        .caption(
+            format!("{title}: spectrogram, modes marked"),
+            ("sans-serif", 18),
+        )
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(0.0..t_end, 0.0..f_top)?;
+    chart
+        .configure_mesh()
+        .x_desc("time after onset (s)")
+        .y_desc("frequency (Hz)")
+        .disable_mesh()
+        .draw()?;
+    let db: Vec<f64> = spec
+        .data
+        .iter()
+        .map(|c| 10.0 * (c.norm_sqr() + 1e-30).log10())
+        .collect();
+    let top = db.iter().copied().fold(f64::MIN, f64::max);
+    let floor = top - 90.0;
+    let plot = chart.plotting_area();
+    let (px_w, px_h) = plot.dim_in_pixel();
+    for py in 0..px_h {
+        let f = f_top * (1.0 - (py as f64 + 0.5) / px_h as f64);
+        let k = ((f / spec.bin_width_hz()).round() as usize).min(spec.bins - 1);
+        for px in 0..px_w {
+            let t = t_end * (px as f64 + 0.5) / px_w as f64;
+            let m = ((t * fs - 0.5 * window as f64) / spec.hop as f64)
+                .round()
+                .clamp(0.0, (spec.frames - 1) as f64) as usize;
+            let v = (db[m * spec.bins + k] - floor) / (top - floor);
+            plot.draw_pixel((t, f), &colour(v))?;
+        }
+    }
+    let strongest = res.modes.iter().map(|m| m.amplitude).fold(0.0, f64::max);
+    chart.draw_series(res.modes.iter().map(|m| {
+        // A mode is marked from its onset to where it has decayed by 60 dB.
+        let t60 = (3.0 * std::f64::consts::LN_10 / m.damping_per_s).min(t_end);
+        let level = 20.0 * (m.amplitude / strongest).log10();
+        let c = if level > -20.0 { CYAN } else { WHITE };
+        PathElement::new(vec![(0.0, m.freq_hz), (t60, m.freq_hz)], c.stroke_width(1))
+    }))?;
+    Ok(())
+}
+
+fn draw_features(
+    area: &Area<'_>,
+    res: &Analysis,
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    let f_max = res.modes.iter().map(|m| m.freq_hz).fold(100.0, f64::max) * 1.3;
+    let f_min = res
+        .modes
+        .iter()
+        .map(|m| m.freq_hz)
+        .fold(f64::INFINITY, f64::min)
+        .min(f_max / 10.0)
+        * 0.7;
+    let d_max = res
+        .modes
+        .iter()
+        .map(|m| m.damping_per_s)
+        .fold(1.0, f64::max)
+        * 2.0;
+    let d_min = res
+        .modes
+        .iter()
+        .map(|m| m.damping_per_s)
+        .fold(f64::INFINITY, f64::min)
+        .min(d_max / 100.0)
+        * 0.5;
+    let mut chart = ChartBuilder::on(area)
+        .caption("features (f, d); size = level", ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((f_min..f_max).log_scale(), (d_min..d_max).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_labels(6)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| format!("{v}"))
+        .x_desc("frequency (Hz)")
+        .y_desc("damping (1/s)")
+        .draw()?;
+    let strongest = res.modes.iter().map(|m| m.amplitude).fold(0.0, f64::max);
+    chart.draw_series(res.modes.iter().map(|m| {
+        let level = 20.0 * (m.amplitude / strongest).log10();
+        let r = (3.0 + (level + 60.0).max(0.0) / 6.0) as i32;
+        Circle::new((m.freq_hz, m.damping_per_s), r, RED.mix(0.7).filled())
+    }))?;
+    Ok(())
+}

@@ -1,0 +1,253 @@
+//! Audio in (WAV, FLAC, OGG Vorbis, MP3 via Symphonia) and out (WAV via hound, atomically).
+
+use crate::{atomic::write_atomic, io_err, parse_err, Result};
+use std::path::Path;
+use symphonia::core::audio::SampleBuffer;
+use symphonia::core::codecs::{DecoderOptions, CODEC_TYPE_NULL};
+use symphonia::core::errors::Error as SymError;
+use symphonia::core::formats::FormatOptions;
+use symphonia::core::io::MediaSourceStream;
+use symphonia::core::meta::MetadataOptions;
+use symphonia::core::probe::Hint;
+
+/// Decoded audio: one `Vec` per channel, full scale = 1.0.
+#[derive(Clone, Debug)]
+pub struct AudioClip {
+    /// Sample rate in Hz.
+    pub sample_rate_hz: u32,
+    /// Samples per channel.
+    pub channels: Vec<Vec<f32>>,
+    /// Codec name, e.g. "pcm_f32le", "flac", "vorbis", "mp3".
+    pub codec: String,
+}
+
+impl AudioClip {
+    /// Frames (samples per channel).
+    pub fn frames(&self) -> usize {
+        self.channels.first().map_or(0, Vec::len)
+    }
+
+    /// Duration in seconds.
+    pub fn duration_s(&self) -> f64 {
+        self.frames() as f64 / f64::from(self.sample_rate_hz)
+    }
+
+    /// One channel (`Some(i)`, 0-based) or the mean of all channels (`None`), as `f64`.
+    ///
+    /// # Errors
+    /// [`crate::IoError::Parse`] when the channel does not exist.
+    pub fn mono(&self, channel: Option<usize>, path: &Path) -> Result<Vec<f64>> {
+        match channel {
+            Some(c) => self
+                .channels
+                .get(c)
+                .map(|ch| ch.iter().map(|&v| f64::from(v)).collect())
+                .ok_or_else(|| {
+                    parse_err(
+                        path,
+                        format!(
+                            "channel {} requested but the file has {} channel(s) (channels count from 0)",
+                            c,
+                            self.channels.len()
+                        ),
+                    )
+                }),
+            None => {
+                let n = self.channels.len().max(1) as f64;
+                Ok((0..self.frames())
+                    .map(|i| self.channels.iter().map(|ch| f64::from(ch[i])).sum::<f64>() / n)
+                    .collect())
+            }
+        }
+    }
+}
+
+/// Decodes an audio file (WAV PCM 8/16/24/32 and float 32/64, FLAC, OGG Vorbis, MP3).
+///
+/// # Errors
+/// [`crate::IoError::Io`] when the file cannot be read; [`crate::IoError::Unsupported`]-style parse errors for
+/// unknown formats; [`crate::IoError::Parse`] for corrupt or truncated data and files with no samples.
+pub fn load_audio(path: &Path) -> Result<AudioClip> {
+    let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
+    let mss = MediaSourceStream::new(Box::new(file), Default::default());
+    let mut hint = Hint::new();
+    if let Some(ext) = path.extension().and_then(|e| e.to_str()) {
+        hint.with_extension(ext);
+    }
+    let probed = symphonia::default::get_probe()
+        .format(
+            &hint,
+            mss,
+            &FormatOptions::default(),
+            &MetadataOptions::default(),
+        )
+        .map_err(|e| match e {
+            SymError::IoError(io) if io.kind() != std::io::ErrorKind::UnexpectedEof => {
+                io_err(path, io)
+            }
+            SymError::Unsupported(_) | SymError::IoError(_) => parse_err(
+                path,
+                "not a supported audio file (supported: WAV, FLAC, OGG Vorbis, MP3)",
+            ),
+            other => parse_err(path, format!("cannot read the audio container: {other}")),
+        })?;
+    let mut format = probed.format;
+    let track = format
+        .tracks()
+        .iter()
+        .find(|t| t.codec_params.codec != CODEC_TYPE_NULL)
+        .ok_or_else(|| parse_err(path, "the file holds no audio track"))?;
+    let track_id = track.id;
+    let expected_frames = track.codec_params.n_frames;
+    let codec = symphonia::default::get_codecs()
+        .get_codec(track.codec_params.codec)
+        .map_or_else(|| "unknown".to_string(), |d| d.short_name.to_string());
+    let mut decoder = symphonia::default::get_codecs()
+        .make(&track.codec_params, &DecoderOptions::default())
+        .map_err(|e| parse_err(path, format!("unsupported codec: {e}")))?;
+    let mut sample_rate = track.codec_params.sample_rate.unwrap_or(0);
+    let mut channels: Vec<Vec<f32>> = Vec::new();
+    let mut buf: Option<SampleBuffer<f32>> = None;
+    let mut truncated = false;
+    loop {
+        let packet = match format.next_packet() {
+            Ok(p) => p,
+            Err(SymError::IoError(e)) if e.kind() == std::io::ErrorKind::UnexpectedEof => break,
+            Err(SymError::ResetRequired) => break,
+            Err(e) => return Err(parse_err(path, format!("corrupt audio stream: {e}"))),
+        };
+        if packet.track_id() != track_id {
+            continue;
+        }
+        match decoder.decode(&packet) {
+            Ok(decoded) => {
+                let spec = *decoded.spec();
+                sample_rate = spec.rate;
+                let nch = spec.channels.count();
+                if channels.is_empty() {
+                    channels = vec![Vec::new(); nch];
+                }
+                if nch != channels.len() {
+                    return Err(parse_err(
+                        path,
+                        "the channel count changes inside the stream",
+                    ));
+                }
+                let need = decoded.capacity() as u64;
+                let b = match &mut buf {
+                    Some(b) if b.capacity() as u64 >= need => b,
+                    _ => buf.insert(SampleBuffer::<f32>::new(need, spec)),
+                };
+                b.copy_interleaved_ref(decoded);
+                for (i, v) in b.samples().iter().enumerate() {
+                    channels[i % nch].push(*v);
+                }
+            }
+            Err(SymError::DecodeError(e)) => {
+                return Err(parse_err(path, format!("corrupt audio data: {e}")));
+            }
+            Err(SymError::IoError(e)) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+                truncated = true;
+                break;
+            }
+            Err(e) => return Err(parse_err(path, format!("cannot decode the audio: {e}"))),
+        }
+    }
+    let frames = channels.first().map_or(0, Vec::len);
+    if frames == 0 {
+        return Err(parse_err(path, "the file holds no audio samples"));
+    }
+    if let Some(n) = expected_frames {
+        // Lossy codecs may pad or trim by up to a frame; PCM must match.
+        if truncated || (frames as u64) + 4096 < n {
+            return Err(parse_err(
+                path,
+                format!("the file is truncated: its header promises {n} frames, only {frames} are present"),
+            ));
+        }
+    }
+    if !(1000..=768_000).contains(&sample_rate) {
+        return Err(parse_err(
+            path,
+            format!("implausible sample rate {sample_rate} Hz"),
+        ));
+    }
+    if let Some(i) = channels.iter().flatten().position(|v| !v.is_finite()) {
+        return Err(parse_err(
+            path,
+            format!("non-finite sample (NaN or infinity) at index {i}"),
+        ));
+    }
+    Ok(AudioClip {
+        sample_rate_hz: sample_rate,
+        channels,
+        codec,
+    })
+}
+
+/// Sample format of written WAV files.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WavFormat {
+    /// 16-bit PCM (rounded without dither, clipped to full scale).
+    Pcm16,
+    /// 24-bit PCM.
+    Pcm24,
+    /// 32-bit IEEE float.
+    Float32,
+}
+
+/// Writes mono `samples` as a WAV file, atomically (temporary file, then rename).
+///
+/// # Errors
+/// [`crate::IoError::Io`] from the file system; [`crate::IoError::Parse`] for a zero sample rate or
+/// non-finite samples (nothing is written).
+pub fn write_wav(
+    path: &Path,
+    samples: &[f32],
+    sample_rate_hz: u32,
+    format: WavFormat,
+) -> Result<()> {
+    if sample_rate_hz == 0 {
+        return Err(parse_err(path, "sample rate must be positive"));
+    }
+    if let Some(i) = samples.iter().position(|v| !v.is_finite()) {
+        return Err(parse_err(
+            path,
+            format!("refusing to write non-finite sample at index {i}"),
+        ));
+    }
+    let (bits, fmt) = match format {
+        WavFormat::Pcm16 => (16, hound::SampleFormat::Int),
+        WavFormat::Pcm24 => (24, hound::SampleFormat::Int),
+        WavFormat::Float32 => (32, hound::SampleFormat::Float),
+    };
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate: sample_rate_hz,
+        bits_per_sample: bits,
+        sample_format: fmt,
+    };
+    let mut cursor = std::io::Cursor::new(Vec::with_capacity(samples.len() * 4 + 64));
+    {
+        let to_io = |e: hound::Error| io_err(path, std::io::Error::other(e.to_string()));
+        let mut w = hound::WavWriter::new(&mut cursor, spec).map_err(to_io)?;
+        match format {
+            WavFormat::Float32 => {
+                for &v in samples {
+                    w.write_sample(v).map_err(to_io)?;
+                }
+            }
+            WavFormat::Pcm16 | WavFormat::Pcm24 => {
+                // Full scale is 2^(bits−1), as decoders divide by it; +1.0 clips to the top code.
+                let full = f64::from(1i32 << (bits - 1));
+                for &v in samples {
+                    let q = (f64::from(v) * full).round().clamp(-full, full - 1.0) as i32;
+                    w.write_sample(q).map_err(to_io)?;
+                }
+            }
+        }
+        w.finalize().map_err(to_io)?;
+    }
+    let bytes = cursor.into_inner();
+    write_atomic(path, |w| w.write_all(&bytes))
+}
