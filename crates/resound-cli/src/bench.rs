@@ -351,10 +351,11 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
             );
             for m in &mix {
                 println!(
-                    "  {:>6.0} {:>7} {:>9.3} {:>10.3} {:>12.2} {:>12.2} {:>10.3}",
+                    "  {:>6.0} {:>7} {:>9.3} {:>11.3} {:>10.3} {:>12.2} {:>12.2} {:>10.3}",
                     m.snr_db,
                     m.reference_modes,
                     m.recall,
+                    m.recall_detectable,
                     m.spurious,
                     m.median_freq_error_over_crb,
                     m.median_damping_error_over_crb,

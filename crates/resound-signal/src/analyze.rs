@@ -256,6 +256,24 @@ pub fn analyze(
             seeds.extend(new);
         }
     }
+    if params.refine
+        && crate::refine::merge_all_duplicates(&mut seeds, seg.len() as f64 / sample_rate_hz)
+    {
+        let refine = RefineParams {
+            sweeps: 1,
+            ..RefineParams::default()
+        };
+        let (_, i) = refine_modes(seg, sample_rate_hz, &mut seeds, &refine);
+        info.iterations += i.iterations;
+        info.noise_rms = i.noise_rms;
+        prune(
+            &mut seeds,
+            sample_rate_hz,
+            seg.len(),
+            info.noise_rms,
+            params,
+        );
+    }
     let mut modes: Vec<DampedMode> = seeds.iter().map(|s| s.mode).collect();
     modes.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
     modes.truncate(params.max_modes);

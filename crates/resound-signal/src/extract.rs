@@ -70,6 +70,8 @@ struct Candidate {
     amplitude: f64,
     level: usize,
     bin: usize,
+    /// Times this peak was put back after a failed fit.
+    retries: u8,
 }
 impl Eq for Candidate {}
 impl PartialOrd for Candidate {
@@ -151,6 +153,7 @@ pub fn extract_modes(
                 amplitude: peak[k].sqrt() * spec.amplitude_scale(),
                 level: li,
                 bin: k,
+                retries: 0,
             })
             .collect();
         found.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
@@ -161,6 +164,8 @@ pub fn extract_modes(
     let mut out: Vec<ExtractedMode> = Vec::new();
     let mut strongest = reference_amplitude.unwrap_or(0.0);
     let min_ratio = 10f64.powf(-params.min_db / 20.0);
+    // Peaks whose fit failed; a neighbour's subtraction may make them fit later.
+    let mut rejected: Vec<Candidate> = Vec::new();
     while let Some(c) = heap.pop() {
         if out.len() >= params.max_modes || c.amplitude < strongest * min_ratio {
             break;
@@ -168,14 +173,9 @@ pub fn extract_modes(
         let level = &levels[c.level];
         let spec = &level.spec;
         // Lazy update: the residual may have shrunk since this peak was queued.
-        let now = (0..spec.frames.min(4))
+        let now = (0..spec.frames)
             .map(|m| spec.at(m, c.bin).norm_sqr())
-            .fold(0.0, f64::max)
-            .max(
-                (0..spec.frames)
-                    .map(|m| spec.at(m, c.bin).norm_sqr())
-                    .fold(0.0, f64::max),
-            );
+            .fold(0.0, f64::max);
         let still_peak = c.bin > 0
             && c.bin + 1 < spec.bins
             && (0..spec.frames).any(|m| {
@@ -205,21 +205,44 @@ pub fn extract_modes(
         {
             continue;
         }
-        let Some((mode, residual)) = fit_peak(spec, level.noise_power, c.bin) else {
+        let fit = fit_peak(spec, level.noise_power, c.bin);
+        // A good fit leaves little more than the patch's noise; two unresolved modes fitted
+        // as one leave structure. A fitted amplitude far above the peak is a runaway fit.
+        let accepted = fit.filter(|(mode, residual, noise_fraction)| {
+            let tolerance = params.fit_tolerance.min(0.02 + 4.0 * noise_fraction);
+            *residual <= tolerance
+                && crate::plausible(mode.freq_hz, mode.damping_per_s, sample_rate_hz)
+                && mode.amplitude <= 20.0 * amp_now
+        });
+        let Some((mode, residual, _)) = accepted else {
+            if c.retries < 2 {
+                rejected.push(Candidate {
+                    amplitude: amp_now,
+                    ..c
+                });
+            }
             continue;
         };
-        // A fitted amplitude far above the peak it came from is a runaway fit.
-        if residual > params.fit_tolerance
-            || !crate::plausible(mode.freq_hz, mode.damping_per_s, sample_rate_hz)
-            || mode.amplitude > 20.0 * amp_now
-        {
-            continue;
-        }
         strongest = strongest.max(mode.amplitude);
         let floor = 1e-4 * (level.noise_power.sqrt() * spec.amplitude_scale()).max(1e-12);
         let window_len = spec.window_len;
         for l in levels.iter_mut() {
             l.spec.subtract_mode(&mode, floor);
+        }
+        // Failed peaks near this mode get another chance on the cleaner residual.
+        let mut i = 0;
+        while i < rejected.len() {
+            let r = &rejected[i];
+            let s = &levels[r.level].spec;
+            if (s.bin_hz(r.bin) - mode.freq_hz).abs() < 6.0 * s.bin_width_hz() {
+                let r = rejected.swap_remove(i);
+                heap.push(Candidate {
+                    retries: r.retries + 1,
+                    ..r
+                });
+            } else {
+                i += 1;
+            }
         }
         out.push(ExtractedMode {
             mode,
@@ -283,8 +306,9 @@ impl CostFunction for PatchCost<'_> {
     }
 }
 
-/// Local shape fit at (`spec`, `bin`): returns the mode and the relative residual.
-fn fit_peak(spec: &Spectrogram, noise_power: f64, bin: usize) -> Option<(DampedMode, f64)> {
+/// Local shape fit at (`spec`, `bin`): returns the mode, the relative residual and the share of
+/// the patch's energy that noise alone would explain.
+fn fit_peak(spec: &Spectrogram, noise_power: f64, bin: usize) -> Option<(DampedMode, f64, f64)> {
     let fs = spec.sample_rate_hz;
     // Frames: from the onset while the peak bin stands 10 dB above the noise, at most 16.
     let mut frames = 1;
@@ -298,6 +322,10 @@ fn fit_peak(spec: &Spectrogram, noise_power: f64, bin: usize) -> Option<(DampedM
         bins: lo..=hi,
         frames,
     };
+    let energy: f64 = (0..frames)
+        .flat_map(|m| (lo..=hi).map(move |k| spec.at(m, k).norm_sqr()))
+        .sum();
+    let noise_fraction = noise_power * (frames * (hi - lo + 1)) as f64 / energy.max(1e-300);
 
     // Initial frequency: parabolic interpolation of log power at the strongest frame.
     let mpk = (0..frames)
@@ -348,7 +376,7 @@ fn fit_peak(spec: &Spectrogram, noise_power: f64, bin: usize) -> Option<(DampedM
         amplitude: amp.norm(),
         phase_rad: amp.arg(),
     };
-    Some((mode, r))
+    Some((mode, r, noise_fraction))
 }
 
 #[cfg(test)]

@@ -88,8 +88,18 @@ pub fn refine_modes(
     let clusters = clusters(seeds, duration_s, params.max_cluster);
     info.clusters = clusters.len();
     let peak = seeds.iter().map(|s| s.mode.amplitude).fold(0.0, f64::max);
+    // Which clusters moved in the previous sweep (all count as moved before the first).
+    let mut moved = vec![true; clusters.len()];
     for _sweep in 0..params.sweeps {
-        for range in &clusters {
+        let before = std::mem::replace(&mut moved, vec![false; clusters.len()]);
+        for (ci, range) in clusters.iter().enumerate() {
+            // A converged cluster needs another fit only if a neighbour moved (its leakage
+            // changes this cluster's target).
+            let lo = ci.saturating_sub(2);
+            let hi = (ci + 2).min(clusters.len() - 1);
+            if !before[lo..=hi].iter().any(|&m| m) {
+                continue;
+            }
             let floor = (0.3 * info.noise_rms).max(1e-10 * peak).max(1e-300);
             let cluster: Vec<Seed> = seeds[range.clone()].to_vec();
             // Window: every sample where some mode of the cluster stands above the floor.
@@ -138,6 +148,17 @@ pub fn refine_modes(
             if !ok {
                 continue;
             }
+            // Energy of the change of this cluster's model, against the noise variance.
+            let mut change = vec![0.0; full];
+            for s in seeds[range.clone()].iter() {
+                add_scaled(&s.mode, sample_rate_hz, -1.0, &mut change);
+            }
+            for m in &modes {
+                add_scaled(m, sample_rate_hz, 1.0, &mut change);
+            }
+            let change_energy: f64 = change.iter().map(|v| v * v).sum();
+            let var = info.noise_rms * info.noise_rms;
+            moved[ci] = change_energy > var.max(1e-300);
             for s in seeds[range.clone()].iter_mut() {
                 add_scaled(&s.mode, sample_rate_hz, 1.0, &mut residual);
             }
@@ -187,6 +208,21 @@ fn merge_duplicates(modes: &mut Vec<DampedMode>, window_s: f64) -> bool {
         }
     }
     merged
+}
+
+/// [`merge_duplicates`] over a whole seed list (after all rounds); returns whether any pair
+/// was merged (the merged seeds then need one more refinement pass).
+pub fn merge_all_duplicates(seeds: &mut Vec<Seed>, window_s: f64) -> bool {
+    let mut modes: Vec<DampedMode> = seeds.iter().map(|s| s.mode).collect();
+    if !merge_duplicates(&mut modes, window_s) {
+        return false;
+    }
+    let window_len = seeds.iter().map(|s| s.window_len).max().unwrap_or(0);
+    *seeds = modes
+        .into_iter()
+        .map(|mode| Seed { mode, window_len })
+        .collect();
+    true
 }
 
 /// `out += scale · mode`.
@@ -321,34 +357,48 @@ fn levenberg_marquardt(
     let mut mu = 1e-3;
     let mut jtj = vec![0.0; np * np];
     let mut jtr = vec![0.0; np];
-    let mut g = vec![0.0; np];
     let mut iterations = 0;
     for _ in 0..max_iterations {
         iterations += 1;
         jtj.iter_mut().for_each(|v| *v = 0.0);
         jtr.iter_mut().for_each(|v| *v = 0.0);
         let mut c0 = 0.0;
+        // Jacobian rows go into a column-major block of BLOCK samples; JᵀJ and Jᵀr are then
+        // accumulated as contiguous dot products, which vectorise.
+        const BLOCK: usize = 256;
+        let mut jb = vec![0.0; BLOCK * np];
+        let mut rb = [0.0; BLOCK];
+        let mut fill = 0;
+        let flush = |jb: &[f64], rb: &[f64], len: usize, jtj: &mut [f64], jtr: &mut [f64]| {
+            for a in 0..np {
+                let ca = &jb[a * BLOCK..a * BLOCK + len];
+                jtr[a] += dot(ca, &rb[..len]);
+                for b in a..np {
+                    jtj[a * np + b] += dot(ca, &jb[b * BLOCK..b * BLOCK + len]);
+                }
+            }
+        };
         for_each_sample(&p, sample_rate_hz, y.len(), |i, v| {
             let mut m = 0.0;
             for (j, q) in p.chunks(P).enumerate() {
                 let (ec, es, t) = (v[3 * j], v[3 * j + 1], v[3 * j + 2]);
                 let sj = q[2] * es + q[3] * ec;
                 m += sj;
-                g[P * j] = TAU * t * (q[2] * ec - q[3] * es);
-                g[P * j + 1] = -t * sj;
-                g[P * j + 2] = es;
-                g[P * j + 3] = ec;
+                jb[(P * j) * BLOCK + fill] = TAU * t * (q[2] * ec - q[3] * es);
+                jb[(P * j + 1) * BLOCK + fill] = -t * sj;
+                jb[(P * j + 2) * BLOCK + fill] = es;
+                jb[(P * j + 3) * BLOCK + fill] = ec;
             }
             let r = y[i] - m;
             c0 += r * r;
-            for a in 0..np {
-                let ga = g[a];
-                jtr[a] += ga * r;
-                for b in a..np {
-                    jtj[a * np + b] += ga * g[b];
-                }
+            rb[fill] = r;
+            fill += 1;
+            if fill == BLOCK {
+                flush(&jb, &rb, BLOCK, &mut jtj, &mut jtr);
+                fill = 0;
             }
         });
+        flush(&jb, &rb, fill, &mut jtj, &mut jtr);
         if !(c0 > 0.0) {
             break;
         }
@@ -365,6 +415,13 @@ fn levenberg_marquardt(
                 mu *= 10.0;
                 continue;
             };
+            // The linearised model predicts a decrease of about δᵀJᵀr; when even that is below
+            // the convergence threshold, stop without paying for the trial evaluation.
+            let predicted: f64 = delta.iter().zip(&jtr).map(|(d, g)| d * g).sum();
+            if predicted <= 1e-2 * c0 / y.len() as f64 && predicted >= 0.0 {
+                *modes = from_params(&p);
+                return iterations;
+            }
             let trial: Vec<f64> = p.iter().zip(&delta).map(|(a, b)| a + b).collect();
             // Growing or vanishing envelopes and frequencies beyond Nyquist are outside the
             // model: treat such a step as a failed one.
@@ -405,6 +462,24 @@ fn levenberg_marquardt(
     }
     *modes = from_params(&p);
     iterations
+}
+
+/// Dot product with four independent accumulators (vectorises).
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut acc = [0.0; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let mut s = acc[0] + acc[1] + acc[2] + acc[3];
+    for (x, y) in ra.iter().zip(rb) {
+        s += x * y;
+    }
+    s
 }
 
 /// Solves `A x = b` for symmetric positive definite `A` (row-major, overwritten).
