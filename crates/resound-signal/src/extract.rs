@@ -205,16 +205,30 @@ pub fn extract_modes(
         {
             continue;
         }
-        let fit = fit_peak(spec, level.noise_power, c.bin);
         // A good fit leaves little more than the patch's noise; two unresolved modes fitted
         // as one leave structure. A fitted amplitude far above the peak is a runaway fit.
-        let accepted = fit.filter(|(mode, residual, noise_fraction)| {
+        // Ren's dynamic level choice is checked both ways: the modes must also explain what the
+        // longer (finer-frequency) levels see, or they are unresolved modes taken as one.
+        let acceptable = |(modes, residual, noise_fraction): &(Vec<DampedMode>, f64, f64)| {
             let tolerance = params.fit_tolerance.min(0.02 + 4.0 * noise_fraction);
             *residual <= tolerance
-                && crate::plausible(mode.freq_hz, mode.damping_per_s, sample_rate_hz)
-                && mode.amplitude <= 20.0 * amp_now
-        });
-        let Some((mode, residual, _)) = accepted else {
+                && modes.iter().all(|m| {
+                    crate::plausible(m.freq_hz, m.damping_per_s, sample_rate_hz)
+                        && m.amplitude <= 20.0 * amp_now
+                })
+                && levels[c.level + 1..].iter().all(|l| {
+                    residual_at_level(&l.spec, l.noise_power, modes)
+                        .is_none_or(|(r, nf)| r <= params.fit_tolerance.min(0.05 + 4.0 * nf))
+                })
+        };
+        let mut accepted = fit_group(spec, level.noise_power, &[c.bin]).filter(acceptable);
+        if accepted.is_none() {
+            // Two close modes: fit this peak together with its strongest neighbour.
+            if let Some(nb) = neighbour_peak(spec, c.bin, threshold.max(1e-3 * now)) {
+                accepted = fit_group(spec, level.noise_power, &[c.bin, nb]).filter(acceptable);
+            }
+        }
+        let Some((group, residual, _)) = accepted else {
             if c.retries < 2 {
                 rejected.push(Candidate {
                     amplitude: amp_now,
@@ -223,39 +237,41 @@ pub fn extract_modes(
             }
             continue;
         };
-        strongest = strongest.max(mode.amplitude);
         let floor = 1e-4 * (level.noise_power.sqrt() * spec.amplitude_scale()).max(1e-12);
         let window_len = spec.window_len;
-        for l in levels.iter_mut() {
-            l.spec.subtract_mode(&mode, floor);
-        }
-        // Failed peaks near this mode get another chance on the cleaner residual.
-        let mut i = 0;
-        while i < rejected.len() {
-            let r = &rejected[i];
-            let s = &levels[r.level].spec;
-            if (s.bin_hz(r.bin) - mode.freq_hz).abs() < 6.0 * s.bin_width_hz() {
-                let r = rejected.swap_remove(i);
-                heap.push(Candidate {
-                    retries: r.retries + 1,
-                    ..r
-                });
-            } else {
-                i += 1;
+        for mode in group {
+            strongest = strongest.max(mode.amplitude);
+            for l in levels.iter_mut() {
+                l.spec.subtract_mode(&mode, floor);
             }
+            // Failed peaks near this mode get another chance on the cleaner residual.
+            let mut i = 0;
+            while i < rejected.len() {
+                let r = &rejected[i];
+                let s = &levels[r.level].spec;
+                if (s.bin_hz(r.bin) - mode.freq_hz).abs() < 6.0 * s.bin_width_hz() {
+                    let r = rejected.swap_remove(i);
+                    heap.push(Candidate {
+                        retries: r.retries + 1,
+                        ..r
+                    });
+                } else {
+                    i += 1;
+                }
+            }
+            out.push(ExtractedMode {
+                mode,
+                window_len,
+                fit_residual: residual,
+            });
         }
-        out.push(ExtractedMode {
-            mode,
-            window_len,
-            fit_residual: residual,
-        });
     }
     out.retain(|e| e.mode.amplitude >= strongest * min_ratio);
     out.sort_by(|a, b| a.mode.freq_hz.total_cmp(&b.mode.freq_hz));
     out
 }
 
-/// The local patch of one peak.
+/// The local patch of one peak (or of two neighbouring peaks fitted together).
 struct Patch<'a> {
     spec: &'a Spectrogram,
     bins: std::ops::RangeInclusive<usize>,
@@ -263,34 +279,58 @@ struct Patch<'a> {
 }
 
 impl Patch<'_> {
-    /// Best amplitude and phase for (f, d) and the relative residual.
-    fn solve(&self, freq_hz: f64, damping: f64) -> (Complex64, f64) {
-        let (mut g11, mut g12, mut g22, mut b1, mut b2, mut xx) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    /// Best complex amplitudes `a e^{jθ}` for the modes `(f, d)` (linear least squares, real
+    /// unknowns Re/Im per mode) and the relative residual.
+    fn solve(&self, fd: &[(f64, f64)]) -> (Vec<Complex64>, f64) {
+        let k_modes = fd.len();
+        let n = 2 * k_modes;
+        let mut g = vec![0.0; n * n];
+        let mut b = vec![0.0; n];
+        let mut xx = 0.0;
+        let mut cols = vec![Complex64::new(0.0, 0.0); n];
+        let mut state: Vec<[Complex64; 4]> = Vec::with_capacity(k_modes);
         for k in self.bins.clone() {
-            let [mut p, mut q, ps, qs] = mode_basis_column(self.spec, freq_hz, damping, k);
+            state.clear();
+            state.extend(
+                fd.iter()
+                    .map(|&(f, d)| mode_basis_column(self.spec, f, d, k)),
+            );
             for m in 0..self.frames {
-                let c1 = p + q;
-                let c2 = Complex64::new(0.0, 1.0) * (p - q);
+                for (j, st) in state.iter_mut().enumerate() {
+                    cols[2 * j] = st[0] + st[1];
+                    cols[2 * j + 1] = Complex64::new(0.0, 1.0) * (st[0] - st[1]);
+                    st[0] *= st[2];
+                    st[1] *= st[3];
+                }
                 let x = self.spec.at(m, k);
-                g11 += c1.norm_sqr();
-                g22 += c2.norm_sqr();
-                g12 += (c1.conj() * c2).re;
-                b1 += (c1.conj() * x).re;
-                b2 += (c2.conj() * x).re;
                 xx += x.norm_sqr();
-                p *= ps;
-                q *= qs;
+                for a in 0..n {
+                    b[a] += (cols[a].conj() * x).re;
+                    for c in a..n {
+                        g[a * n + c] += (cols[a].conj() * cols[c]).re;
+                    }
+                }
             }
         }
-        let det = g11 * g22 - g12 * g12;
-        if !(det > 0.0) || !(xx > 0.0) {
-            return (Complex64::new(0.0, 0.0), f64::INFINITY);
+        for a in 0..n {
+            for c in 0..a {
+                g[a * n + c] = g[c * n + a];
+            }
+            g[a * n + a] *= 1.0 + 1e-12;
         }
-        let u = (g22 * b1 - g12 * b2) / det;
-        let v = (g11 * b2 - g12 * b1) / det;
+        let Some(coef) = crate::refine::cholesky_solve(&mut g, &b, n) else {
+            return (vec![Complex64::new(0.0, 0.0); k_modes], f64::INFINITY);
+        };
+        if !(xx > 0.0) {
+            return (vec![Complex64::new(0.0, 0.0); k_modes], f64::INFINITY);
+        }
         // Residual of a linear LS fit: |x|² − bᵀ·coef.
-        let res = (xx - (u * b1 + v * b2)).max(0.0) / xx;
-        (Complex64::new(u, v), res)
+        let explained: f64 = coef.iter().zip(&b).map(|(c, b)| c * b).sum();
+        let res = (xx - explained).max(0.0) / xx;
+        (
+            coef.chunks(2).map(|c| Complex64::new(c[0], c[1])).collect(),
+            res,
+        )
     }
 }
 
@@ -300,23 +340,85 @@ impl CostFunction for PatchCost<'_> {
     type Param = Vec<f64>;
     type Output = f64;
     fn cost(&self, p: &Self::Param) -> Result<f64, ArgminError> {
-        let d = p[1].exp();
-        let (_, r) = self.0.solve(p[0], d);
+        let fd: Vec<(f64, f64)> = p.chunks(2).map(|q| (q[0], q[1].exp())).collect();
+        let (_, r) = self.0.solve(&fd);
         Ok(if r.is_finite() { r } else { 1e300 })
     }
 }
 
-/// Local shape fit at (`spec`, `bin`): returns the mode, the relative residual and the share of
-/// the patch's energy that noise alone would explain.
-fn fit_peak(spec: &Spectrogram, noise_power: f64, bin: usize) -> Option<(DampedMode, f64, f64)> {
-    let fs = spec.sample_rate_hz;
-    // Frames: from the onset while the peak bin stands 10 dB above the noise, at most 16.
-    let mut frames = 1;
-    while frames < spec.frames.min(16) && spec.at(frames, bin).norm_sqr() > 10.0 * noise_power {
+/// How well `modes` explain the patches around their frequencies at another level: the
+/// relative residual and the share of the patch energy noise would explain. `None` when the
+/// first mode does not stand 10 dB above the noise at that level.
+fn residual_at_level(
+    spec: &Spectrogram,
+    noise_power: f64,
+    modes: &[DampedMode],
+) -> Option<(f64, f64)> {
+    let bins: Vec<usize> = modes
+        .iter()
+        .map(|m| (m.freq_hz / spec.bin_width_hz()).round() as usize)
+        .collect();
+    let (lo, hi) = (*bins.iter().min()?, *bins.iter().max()?);
+    if lo < 3 || hi + 3 >= spec.bins {
+        return None;
+    }
+    let mut frames = 0;
+    while frames < spec.frames.min(16) && spec.at(frames, bins[0]).norm_sqr() > 10.0 * noise_power {
         frames += 1;
     }
-    let lo = bin.saturating_sub(2).max(1);
-    let hi = (bin + 2).min(spec.bins - 2);
+    if frames == 0 {
+        return None;
+    }
+    let amps: Vec<Complex64> = modes
+        .iter()
+        .map(|m| Complex64::from_polar(m.amplitude, m.phase_rad))
+        .collect();
+    let (mut rr, mut xx) = (0.0, 0.0);
+    let mut cells = 0;
+    for k in lo - 2..=hi + 2 {
+        if !bins.iter().any(|&b| b.abs_diff(k) <= 2) {
+            continue;
+        }
+        cells += frames;
+        let mut cols: Vec<[Complex64; 4]> = modes
+            .iter()
+            .map(|m| mode_basis_column(spec, m.freq_hz, m.damping_per_s, k))
+            .collect();
+        for m in 0..frames {
+            let x = spec.at(m, k);
+            let mut model = Complex64::new(0.0, 0.0);
+            for (c, a) in cols.iter_mut().zip(&amps) {
+                model += a * c[0] + a.conj() * c[1];
+                c[0] *= c[2];
+                c[1] *= c[3];
+            }
+            rr += (x - model).norm_sqr();
+            xx += x.norm_sqr();
+        }
+    }
+    if !(xx > 0.0) {
+        return None;
+    }
+    Some((rr / xx, noise_power * cells as f64 / xx))
+}
+
+/// Local shape fit of the peaks at `bins` (one, or two neighbours fitted jointly) of `spec`:
+/// returns the modes, the relative residual and the share of the patch's energy that noise
+/// alone would explain.
+fn fit_group(
+    spec: &Spectrogram,
+    noise_power: f64,
+    bins: &[usize],
+) -> Option<(Vec<DampedMode>, f64, f64)> {
+    let fs = spec.sample_rate_hz;
+    let main = bins[0];
+    // Frames: from the onset while the main bin stands 10 dB above the noise, at most 16.
+    let mut frames = 1;
+    while frames < spec.frames.min(16) && spec.at(frames, main).norm_sqr() > 10.0 * noise_power {
+        frames += 1;
+    }
+    let lo = bins.iter().min()?.saturating_sub(2).max(1);
+    let hi = (bins.iter().max()? + 2).min(spec.bins - 2);
     let patch = Patch {
         spec,
         bins: lo..=hi,
@@ -326,57 +428,88 @@ fn fit_peak(spec: &Spectrogram, noise_power: f64, bin: usize) -> Option<(DampedM
         .flat_map(|m| (lo..=hi).map(move |k| spec.at(m, k).norm_sqr()))
         .sum();
     let noise_fraction = noise_power * (frames * (hi - lo + 1)) as f64 / energy.max(1e-300);
-
-    // Initial frequency: parabolic interpolation of log power at the strongest frame.
-    let mpk = (0..frames)
-        .max_by(|&a, &b| {
-            spec.at(a, bin)
-                .norm_sqr()
-                .total_cmp(&spec.at(b, bin).norm_sqr())
-        })
-        .unwrap_or(0);
-    let lp = |k: usize| spec.at(mpk, k).norm_sqr().max(1e-300).ln();
-    let (ym, y0, yp) = (lp(bin - 1), lp(bin), lp(bin + 1));
-    let denom = ym - 2.0 * y0 + yp;
-    let delta = if denom < 0.0 {
-        (0.5 * (ym - yp) / denom).clamp(-0.5, 0.5)
-    } else {
-        0.0
-    };
-    let f0 = (bin as f64 + delta) * spec.bin_width_hz();
-    // Initial damping: slope of log magnitude over the patch frames.
-    let d0 = if frames >= 2 {
-        let a0 = spec.at(0, bin).norm().max(1e-300).ln();
-        let a1 = spec.at(frames - 1, bin).norm().max(1e-300).ln();
-        let dt = spec.frame_start_s(frames - 1);
-        ((a0 - a1) / dt).clamp(0.05, 20_000.0)
-    } else {
-        2.0 * fs / spec.window_len as f64
-    };
     let bw = spec.bin_width_hz();
-    let simplex = vec![
-        vec![f0, d0.ln()],
-        vec![f0 + 0.3 * bw, d0.ln()],
-        vec![f0, d0.ln() + 0.7],
-    ];
+    let mut start: Vec<f64> = Vec::with_capacity(2 * bins.len());
+    for &bin in bins {
+        if bin < 1 || bin + 1 >= spec.bins {
+            return None;
+        }
+        // Initial frequency: parabolic interpolation of log power at the strongest frame.
+        let mpk = (0..frames)
+            .max_by(|&a, &b| {
+                spec.at(a, bin)
+                    .norm_sqr()
+                    .total_cmp(&spec.at(b, bin).norm_sqr())
+            })
+            .unwrap_or(0);
+        let lp = |k: usize| spec.at(mpk, k).norm_sqr().max(1e-300).ln();
+        let (ym, y0, yp) = (lp(bin - 1), lp(bin), lp(bin + 1));
+        let denom = ym - 2.0 * y0 + yp;
+        let delta = if denom < 0.0 {
+            (0.5 * (ym - yp) / denom).clamp(-0.5, 0.5)
+        } else {
+            0.0
+        };
+        let f0 = (bin as f64 + delta) * bw;
+        // Initial damping: slope of log magnitude over the patch frames.
+        let d0 = if frames >= 2 {
+            let a0 = spec.at(0, bin).norm().max(1e-300).ln();
+            let a1 = spec.at(frames - 1, bin).norm().max(1e-300).ln();
+            let dt = spec.frame_start_s(frames - 1);
+            ((a0 - a1) / dt).clamp(0.05, 20_000.0)
+        } else {
+            2.0 * fs / spec.window_len as f64
+        };
+        start.extend([f0, d0.ln()]);
+    }
+    // Simplex: the start and one step along each parameter.
+    let mut simplex = vec![start.clone()];
+    for i in 0..start.len() {
+        let mut v = start.clone();
+        v[i] += if i % 2 == 0 { 0.3 * bw } else { 0.7 };
+        simplex.push(v);
+    }
     let solver = NelderMead::new(simplex).with_sd_tolerance(1e-10).ok()?;
     let res = Executor::new(PatchCost(&patch), solver)
-        .configure(|s| s.max_iters(150))
+        .configure(|s| s.max_iters(150 * bins.len() as u64))
         .run()
         .ok()?;
     let best = res.state.best_param.clone()?;
-    let (f, d) = (best[0], best[1].exp());
-    let (amp, r) = patch.solve(f, d);
-    if !(r.is_finite() && amp.norm() > 0.0) {
+    let fd: Vec<(f64, f64)> = best.chunks(2).map(|q| (q[0], q[1].exp())).collect();
+    let (amps, r) = patch.solve(&fd);
+    if !r.is_finite() || amps.iter().any(|a| !(a.norm() > 0.0)) {
         return None;
     }
-    let mode = DampedMode {
-        freq_hz: f,
-        damping_per_s: d,
-        amplitude: amp.norm(),
-        phase_rad: amp.arg(),
+    let modes = fd
+        .iter()
+        .zip(&amps)
+        .map(|(&(f, d), a)| DampedMode {
+            freq_hz: f,
+            damping_per_s: d,
+            amplitude: a.norm(),
+            phase_rad: a.arg(),
+        })
+        .collect();
+    Some((modes, r, noise_fraction))
+}
+
+/// The strongest other peak of `spec` within 8 bins of `bin` that stands above `threshold`
+/// (per-bin maximum over frames), if any.
+fn neighbour_peak(spec: &Spectrogram, bin: usize, threshold: f64) -> Option<usize> {
+    let power = |k: usize| {
+        (0..spec.frames.min(16))
+            .map(|m| spec.at(m, k).norm_sqr())
+            .fold(0.0, f64::max)
     };
-    Some((mode, r, noise_fraction))
+    let lo = bin.saturating_sub(8).max(1);
+    let hi = (bin + 8).min(spec.bins - 2);
+    (lo..=hi)
+        .filter(|&k| k.abs_diff(bin) >= 2)
+        .filter(|&k| {
+            let p = power(k);
+            p > threshold && p > power(k - 1) && p >= power(k + 1)
+        })
+        .max_by(|&a, &b| power(a).total_cmp(&power(b)))
 }
 
 #[cfg(test)]

@@ -18,8 +18,8 @@ pub struct Scan {
 /// The signal is cut into 1 ms blocks; the block envelope is the largest magnitude in the block.
 /// The noise floor is the 5th percentile of block envelopes. A strike starts in the first block
 /// whose envelope exceeds both 20 dB above the floor and −40 dB below the peak; the onset is the
-/// last quiet sample (magnitude at most 3× the floor) before the first loud one, so a signal that
-/// starts at sample 0 has its onset at 0. A later strike is a block whose envelope rises 12 dB
+/// last quiet sample (magnitude at most 3× the median envelope before the strike) before the
+/// first loud one, so a signal that starts at sample 0 has its onset at 0. A later strike is a block whose envelope rises 12 dB
 /// above the largest envelope of the 10 ms before it, within 2 ms, and reaches −30 dB of the peak.
 pub fn scan(x: &[f64], sample_rate_hz: f64) -> Scan {
     let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -60,7 +60,15 @@ pub fn scan(x: &[f64], sample_rate_hz: f64) -> Scan {
     };
     let start = first_block * block;
     let first_loud = start + x[start..].iter().position(|v| v.abs() > loud).unwrap_or(0);
-    let quiet = 3.0 * floor;
+    // "Quiet" is judged against the signal before the strike: with nothing before it (the
+    // strike starts at sample 0) any non-zero sample belongs to the strike.
+    let quiet = if first_block == 0 {
+        0.0
+    } else {
+        let mut pre = env[..first_block].to_vec();
+        pre.sort_by(f64::total_cmp);
+        3.0 * pre[pre.len() / 2]
+    };
     let mut onset = first_loud;
     while onset > 0 && x[onset].abs() > quiet {
         onset -= 1;
