@@ -219,11 +219,191 @@ fn bad_input_exits_2_with_a_message() {
 fn help_explains_each_subcommand() {
     let dir = tempfile::tempdir().unwrap();
     let h = ok(&resound(&["--help"], dir.path()));
-    for cmd in ["modal", "mesh", "model", "bench"] {
+    for cmd in ["modal", "mesh", "model", "analyze", "bench"] {
         assert!(
             h.lines()
                 .any(|l| l.trim_start().starts_with(cmd) && l.len() > cmd.len() + 20),
             "{cmd}: {h}"
         );
     }
+}
+
+/// Three modes after 20 ms of silence, written as 24-bit WAV at 48 kHz.
+fn strike_wav(path: &Path, lead_s: f64, n: usize) -> Vec<resound::core::DampedMode> {
+    use resound::core::DampedMode;
+    let modes = vec![
+        DampedMode {
+            freq_hz: 523.25,
+            damping_per_s: 6.0,
+            amplitude: 0.3,
+            phase_rad: 0.4,
+        },
+        DampedMode {
+            freq_hz: 1811.0,
+            damping_per_s: 35.0,
+            amplitude: 0.2,
+            phase_rad: -1.2,
+        },
+        DampedMode {
+            freq_hz: 7340.0,
+            damping_per_s: 120.0,
+            amplitude: 0.25,
+            phase_rad: 2.0,
+        },
+    ];
+    let lead = (lead_s * 48000.0) as usize;
+    let mut x = vec![0.0f32; lead];
+    x.extend(
+        resound::core::damped::synthesize(&modes, 48000.0, n)
+            .iter()
+            .map(|&v| v as f32),
+    );
+    resound::io::write_wav(path, &x, 48000, resound::io::WavFormat::Pcm24).unwrap();
+    modes
+}
+
+#[test]
+fn analyze_round_trip_json_table_and_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let truth = strike_wav(&d.join("hit.wav"), 0.02, 48000);
+    let table = ok(&resound(
+        &[
+            "analyze", "hit.wav", "--json", "hit.json", "--plot", "hit.png",
+        ],
+        d,
+    ));
+    assert_eq!(
+        table
+            .lines()
+            .filter(|l| l.trim_start().starts_with(char::is_numeric))
+            .count(),
+        3,
+        "{table}"
+    );
+    let v: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("hit.json")).unwrap()).unwrap();
+    assert_eq!(v["sample_rate"], 48000.0);
+    assert!(
+        (v["onset_s"].as_f64().unwrap() - 0.02).abs() < 2.0 / 48000.0,
+        "{}",
+        v["onset_s"]
+    );
+    let modes = v["modes"].as_array().unwrap();
+    assert_eq!(modes.len(), 3, "{v}");
+    for (m, t) in modes.iter().zip(&truth) {
+        let f = m["freq_hz"].as_f64().unwrap();
+        let dmp = m["damping_per_s"].as_f64().unwrap();
+        let a = m["amplitude"].as_f64().unwrap();
+        assert!((f - t.freq_hz).abs() < 1e-3, "{f} vs {}", t.freq_hz);
+        assert!(
+            (dmp / t.damping_per_s - 1.0).abs() < 1e-3,
+            "{dmp} vs {}",
+            t.damping_per_s
+        );
+        assert!(
+            (a / t.amplitude - 1.0).abs() < 1e-3,
+            "{a} vs {}",
+            t.amplitude
+        );
+        assert!(m["phase_rad"].is_number());
+    }
+    let png = std::fs::read(d.join("hit.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    // JSON on stdout with "-"; resampling keeps the frequencies.
+    let out = ok(&resound(
+        &[
+            "analyze",
+            "hit.wav",
+            "--json",
+            "-",
+            "--resample-hz",
+            "44100",
+        ],
+        d,
+    ));
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["sample_rate"], 44100.0);
+    let f0 = v["modes"][0]["freq_hz"].as_f64().unwrap();
+    assert!((f0 - 523.25).abs() < 0.01, "{f0}");
+}
+
+#[test]
+fn analyze_bad_input_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("junk.wav"), b"RIFF\x10\x00\x00\x00WAVEjunkjunkjunk").unwrap();
+    fails_with(
+        &resound(&["analyze", "junk.wav", "--json", "o.json"], d),
+        "junk.wav",
+    );
+    assert!(!d.join("o.json").exists());
+    resound::io::write_wav(
+        &d.join("silent.wav"),
+        &vec![0.0f32; 48000],
+        48000,
+        resound::io::WavFormat::Pcm16,
+    )
+    .unwrap();
+    fails_with(&resound(&["analyze", "silent.wav"], d), "silent");
+    strike_wav(&d.join("short.wav"), 0.1, 480);
+    fails_with(&resound(&["analyze", "short.wav"], d), "at least 20 ms");
+    strike_wav(&d.join("hit.wav"), 0.0, 9600);
+    fails_with(
+        &resound(&["analyze", "hit.wav", "--strike", "2"], d),
+        "only 1 strike",
+    );
+    fails_with(
+        &resound(&["analyze", "hit.wav", "--channel", "3"], d),
+        "1 channel(s)",
+    );
+    fails_with(
+        &resound(&["analyze", "hit.wav", "--min-db=-5"], d),
+        "min_db",
+    );
+    fails_with(&resound(&["analyze", "missing.flac"], d), "missing.flac");
+}
+
+#[test]
+fn bench_analyze_reports_the_protocols() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = ok(&resound(
+        &[
+            "bench",
+            "analyze",
+            "--json",
+            "--trials",
+            "3",
+            "--mixtures",
+            "2",
+            "--snr-db",
+            "40",
+        ],
+        dir.path(),
+    ));
+    let v: Value = serde_json::from_str(&out).unwrap();
+    for method in ["refined", "stage1"] {
+        let single = &v[method]["single"];
+        assert_eq!(single["trials"], 3);
+        assert!(
+            single["mean_freq_error_pct"].as_f64().unwrap() < 0.01,
+            "{v}"
+        );
+        let mix = &v[method]["mixtures"][0];
+        assert_eq!(mix["snr_db"], 40.0);
+        for key in [
+            "recall",
+            "spurious",
+            "median_freq_error_over_crb",
+            "seconds_per_audio_second",
+        ] {
+            assert!(mix[key].is_number(), "{key}: {v}");
+        }
+    }
+    assert!(
+        v["refined"]["single"]["mean_freq_error_pct"]
+            .as_f64()
+            .unwrap()
+            < 1e-6
+    );
 }

@@ -18,8 +18,9 @@ pub struct Scan {
 /// The signal is cut into 1 ms blocks; the block envelope is the largest magnitude in the block.
 /// The noise floor is the 5th percentile of block envelopes. A strike starts in the first block
 /// whose envelope exceeds both 20 dB above the floor and −40 dB below the peak; the onset is the
-/// last quiet sample (magnitude at most 3× the median envelope before the strike) before the
-/// first loud one, so a signal that starts at sample 0 has its onset at 0. A later strike is a block whose envelope rises 12 dB
+/// first sample after the last quiet one (magnitude at most 3× the median envelope before the
+/// strike) that precedes the first loud sample, so a signal that starts at sample 0 has its
+/// onset at 0. A later strike is a block whose envelope rises 12 dB
 /// above the largest envelope of the 10 ms before it, within 2 ms, and reaches −30 dB of the peak.
 pub fn scan(x: &[f64], sample_rate_hz: f64) -> Scan {
     let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -69,8 +70,10 @@ pub fn scan(x: &[f64], sample_rate_hz: f64) -> Scan {
         pre.sort_by(f64::total_cmp);
         3.0 * pre[pre.len() / 2]
     };
+    // The onset is the first sample of the loud run that ends the quiet: from it on, the
+    // signal is the strike alone (a model that starts there fits it exactly).
     let mut onset = first_loud;
-    while onset > 0 && x[onset].abs() > quiet {
+    while onset > 0 && x[onset - 1].abs() > quiet {
         onset -= 1;
     }
     out.onsets.push(onset);
