@@ -346,8 +346,15 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
             );
             println!("[{name}] protocol 2 (mixtures of 1-24 modes, white noise):");
             println!(
-                "  {:>6} {:>7} {:>9} {:>10} {:>12} {:>12} {:>10}",
-                "SNR_dB", "modes", "recall", "spurious", "f_err/CRB", "d_err/CRB", "s/s audio"
+                "  {:>6} {:>7} {:>9} {:>11} {:>10} {:>12} {:>12} {:>10}",
+                "SNR_dB",
+                "modes",
+                "recall",
+                "recall(det)",
+                "spurious",
+                "f_err/CRB",
+                "d_err/CRB",
+                "s/s audio"
             );
             for m in &mix {
                 println!(

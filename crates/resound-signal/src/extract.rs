@@ -157,7 +157,7 @@ pub fn extract_modes(
             })
             .collect();
         found.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
-        found.truncate(4 * params.max_modes.max(16));
+        found.truncate(2 * params.max_modes.max(16));
         heap.extend(found);
     }
 
@@ -166,6 +166,7 @@ pub fn extract_modes(
     let min_ratio = 10f64.powf(-params.min_db / 20.0);
     // Peaks whose fit failed; a neighbour's subtraction may make them fit later.
     let mut rejected: Vec<Candidate> = Vec::new();
+    let mut failures_in_a_row = 0usize;
     while let Some(c) = heap.pop() {
         if out.len() >= params.max_modes || c.amplitude < strongest * min_ratio {
             break;
@@ -222,7 +223,7 @@ pub fn extract_modes(
                 })
         };
         let mut accepted = fit_group(spec, level.noise_power, &[c.bin]).filter(acceptable);
-        if accepted.is_none() {
+        if accepted.is_none() && c.retries == 0 {
             // Two close modes: fit this peak together with its strongest neighbour.
             if let Some(nb) = neighbour_peak(spec, c.bin, threshold.max(1e-3 * now)) {
                 accepted = fit_group(spec, level.noise_power, &[c.bin, nb]).filter(acceptable);
@@ -235,8 +236,14 @@ pub fn extract_modes(
                     ..c
                 });
             }
+            // Noise-like input: peak after peak fails to look like a mode. Stop searching.
+            failures_in_a_row += 1;
+            if failures_in_a_row > 3 * params.max_modes.max(16) {
+                break;
+            }
             continue;
         };
+        failures_in_a_row = 0;
         let floor = 1e-4 * (level.noise_power.sqrt() * spec.amplitude_scale()).max(1e-12);
         let window_len = spec.window_len;
         for mode in group {
