@@ -6,7 +6,7 @@
 //!    frames, above that level's noise floor. All peaks of all levels go in one priority queue,
 //!    ordered by the amplitude they imply.
 //! 3. Greedy local shape fitting from the strongest peak: the mode's (f, d) are found by
-//!    Nelder–Mead (argmin) on the residual of its closed-form "hill" ([`mode_basis`]) against a
+//!    Nelder–Mead (argmin) on the residual of its closed-form "hill" ([`crate::stft::mode_basis`]) against a
 //!    patch of ±2 bins × up to 16 frames; amplitude and phase are the linear least-squares
 //!    solution for each (f, d) (variable projection). A fit whose relative residual exceeds
 //!    `fit_tolerance` means this level cannot resolve the mode and the peak is discarded — the

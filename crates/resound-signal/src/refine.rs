@@ -210,7 +210,7 @@ fn merge_duplicates(modes: &mut Vec<DampedMode>, window_s: f64) -> bool {
     merged
 }
 
-/// [`merge_duplicates`] over a whole seed list (after all rounds); returns whether any pair
+/// Near-duplicate merging (as inside a cluster) over a whole seed list (after all rounds); returns whether any pair
 /// was merged (the merged seeds then need one more refinement pass).
 pub fn merge_all_duplicates(seeds: &mut Vec<Seed>, window_s: f64) -> bool {
     let mut modes: Vec<DampedMode> = seeds.iter().map(|s| s.mode).collect();
