@@ -77,8 +77,18 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         eprintln!("warning: {w}");
     }
     if res.modes.is_empty() {
+        let hint = if res.strikes_s.len() > 1 {
+            format!(
+                " (strike {} of {} lasts {:.0} ms; try another with --strike)",
+                a.strike,
+                res.strikes_s.len(),
+                1e3 * res.samples as f64 / res.sample_rate_hz
+            )
+        } else {
+            String::new()
+        };
         bail!(
-            "no modes found in {} above the noise and within {} dB of the strongest peak",
+            "no modes found in {} above the noise and within {} dB of the strongest peak{hint}",
             a.audio.display(),
             a.min_db
         );
