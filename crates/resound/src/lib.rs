@@ -10,6 +10,7 @@
 #![warn(missing_docs)]
 
 pub use resound_core as core;
+pub use resound_estimate as estimate;
 pub use resound_fem as fem;
 pub use resound_io as io;
 pub use resound_modal as modal;
