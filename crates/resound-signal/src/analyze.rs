@@ -208,10 +208,7 @@ pub fn analyze(
     let mut extract_s = 0.0;
     let mut seeds: Vec<Seed> = extract_modes(seg, sample_rate_hz, &extract, &[], None)
         .into_iter()
-        .map(|e| Seed {
-            mode: e.mode,
-            window_len: e.window_len,
-        })
+        .map(Seed::from)
         .collect();
     extract_s += t0.elapsed().as_secs_f64();
     let mut info = RefineInfo::default();
@@ -244,10 +241,7 @@ pub fn analyze(
             let new: Vec<Seed> =
                 extract_modes(&residual, sample_rate_hz, &more, &known, Some(strongest))
                     .into_iter()
-                    .map(|e| Seed {
-                        mode: e.mode,
-                        window_len: e.window_len,
-                    })
+                    .map(Seed::from)
                     .collect();
             extract_s += t1.elapsed().as_secs_f64();
             if new.is_empty() {

@@ -44,6 +44,15 @@ pub struct Seed {
     pub window_len: usize,
 }
 
+impl From<crate::extract::ExtractedMode> for Seed {
+    fn from(e: crate::extract::ExtractedMode) -> Self {
+        Self {
+            mode: e.mode,
+            window_len: e.window_len,
+        }
+    }
+}
+
 /// Outcome of [`refine_modes`].
 #[derive(Clone, Debug, Default)]
 pub struct RefineInfo {
