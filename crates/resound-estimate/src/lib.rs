@@ -6,6 +6,7 @@
 //! critical-band rate). The metrics, the optimizer and the material library follow.
 #![warn(missing_docs)]
 
+pub mod features;
 pub mod forward;
 pub mod psycho;
 
