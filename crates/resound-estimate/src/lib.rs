@@ -8,6 +8,7 @@
 
 pub mod features;
 pub mod forward;
+pub mod image;
 pub mod psycho;
 
 pub use forward::{forward_modes, RayleighParams};
