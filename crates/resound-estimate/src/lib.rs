@@ -6,9 +6,11 @@
 //! critical-band rate). The metrics, the optimizer and the material library follow.
 #![warn(missing_docs)]
 
+pub mod estimate;
 pub mod features;
 pub mod forward;
 pub mod image;
 pub mod psycho;
 
+pub use estimate::{estimate, Estimate, EstimateError, EstimateParams, ModalSide};
 pub use forward::{forward_modes, RayleighParams};

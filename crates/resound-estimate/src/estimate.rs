@@ -1,0 +1,426 @@
+//! Parameter estimation (Ren 2013 §5.3): multi-start Nelder–Mead on the hybrid metric
+//! `Π_psycho / |Π_MRP|` (eq. 27).
+//!
+//! Starting points: for every pair of the `dominant` strongest reference modes, the Rayleigh
+//! circle through them (eq. 8) gives (α, β); for every "no cheaper, louder" eigenvalue (no other
+//! has both a smaller λ⁰ and a larger a⁰), γ and σ put that mode on the frequency and amplitude
+//! of the most dominant reference mode. Each start is refined by Nelder–Mead (argmin) over
+//! (α, ln β, ln γ, ln σ), in parallel (rayon); the lowest metric wins.
+//!
+//! One metric evaluation is cheap because the estimated image is computed in closed form
+//! ([`crate::image::image_of_modes`]) against a reference image computed once.
+
+use crate::features::{match_ratio, FeaturePoint};
+use crate::forward::{forward_modes, RayleighParams};
+use crate::image::{image_of_modes, image_of_signal, ImageGrid, LoudnessImage};
+use argmin::core::{CostFunction, Error as ArgminError, Executor};
+use argmin::solver::neldermead::NelderMead;
+use rayon::prelude::*;
+use resound_core::DampedMode;
+use std::f64::consts::TAU;
+
+/// The object side of the estimation: a modal model's eigenvalues at the reference material and
+/// its unit-impulse amplitudes at the hit point.
+#[derive(Clone, Debug)]
+pub struct ModalSide {
+    /// λ⁰ in rad²/s², ascending.
+    pub eigenvalues0: Vec<f64>,
+    /// a⁰ per mode.
+    pub gains0: Vec<f64>,
+    /// γ₀ = E₀/ρ₀ of the reference material.
+    pub gamma0: f64,
+}
+
+/// Settings of [`estimate`].
+#[derive(Clone, Debug)]
+pub struct EstimateParams {
+    /// Reference modes used for starting circles (Ren's N_dominant).
+    pub dominant: usize,
+    /// Nelder–Mead iterations per start.
+    pub max_iterations: u64,
+    /// Cells quieter than this many dB below the loudest reference cell count as the floor.
+    pub floor_db: f64,
+}
+
+impl Default for EstimateParams {
+    fn default() -> Self {
+        Self {
+            dominant: 5,
+            max_iterations: 400,
+            floor_db: 50.0,
+        }
+    }
+}
+
+/// Result of [`estimate`].
+#[derive(Clone, Debug)]
+pub struct Estimate {
+    /// Best parameters.
+    pub params: RayleighParams,
+    /// Hybrid metric at the best parameters.
+    pub metric: f64,
+    /// Number of starting points.
+    pub starts: usize,
+    /// Metric evaluations in all.
+    pub evaluations: usize,
+}
+
+/// Why estimation cannot run.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum EstimateError {
+    /// No reference modes.
+    #[error("the recording gave no modes to match")]
+    NoReferenceModes,
+    /// Recording too short for one image frame.
+    #[error("the recording is too short for the loudness image ({0} samples)")]
+    TooShort(usize),
+    /// No eigenvalue of the model can reach the recording's band.
+    #[error("the modal model has no usable modes (need positive eigenvalues and non-zero gains)")]
+    NoModelModes,
+    /// Every start was invalid.
+    #[error("no valid starting point: the dominant reference modes admit no Rayleigh circle with α, β ≥ 0")]
+    NoStart,
+}
+
+/// The hybrid metric against a precomputed reference (image and feature points).
+pub struct Objective<'a> {
+    side: &'a ModalSide,
+    grid: ImageGrid,
+    reference_image: LoudnessImage,
+    reference_points: Vec<FeaturePoint>,
+    max_freq_hz: f64,
+}
+
+impl<'a> Objective<'a> {
+    /// Prepares the reference: `signal` (onset-aligned) and its analysed `modes`.
+    pub fn new(
+        side: &'a ModalSide,
+        signal: &[f64],
+        sample_rate_hz: f64,
+        reference_modes: &[DampedMode],
+        floor_db: f64,
+    ) -> Result<Self, EstimateError> {
+        let grid = ImageGrid::new(sample_rate_hz, signal.len())
+            .ok_or(EstimateError::TooShort(signal.len()))?;
+        let raw = image_of_signal(signal, &grid);
+        let grid = grid.with_floor_below(&raw, floor_db);
+        let reference_image = image_of_signal(signal, &grid);
+        Ok(Self {
+            side,
+            grid,
+            reference_image,
+            reference_points: reference_modes.iter().map(FeaturePoint::of).collect(),
+            max_freq_hz: 0.5 * sample_rate_hz,
+        })
+    }
+
+    /// Estimated modes for `p`.
+    pub fn modes(&self, p: &RayleighParams) -> Vec<DampedMode> {
+        forward_modes(
+            &self.side.eigenvalues0,
+            &self.side.gains0,
+            self.side.gamma0,
+            p,
+            self.max_freq_hz,
+        )
+    }
+
+    /// `Π_psycho / |Π_MRP|` (eq. 27); infinite for invalid parameters or no match at all.
+    pub fn hybrid(&self, p: &RayleighParams) -> f64 {
+        if !p.is_valid() {
+            return f64::INFINITY;
+        }
+        let modes = self.modes(p);
+        let psycho = image_of_modes(&modes, &self.grid).distance(&self.reference_image);
+        let points: Vec<FeaturePoint> = modes.iter().map(FeaturePoint::of).collect();
+        let mrp = match_ratio(&self.reference_points, &points)
+            * match_ratio(&points, &self.reference_points);
+        if !(mrp > 1e-12) {
+            return f64::INFINITY;
+        }
+        psycho / mrp
+    }
+}
+
+/// Parameters ↔ the optimizer's unconstrained vector (α, ln β, ln γ, ln σ); α is folded to ≥ 0.
+fn to_vec(p: &RayleighParams) -> Vec<f64> {
+    vec![p.alpha, p.beta.max(1e-15).ln(), p.gamma.ln(), p.sigma.ln()]
+}
+
+fn from_vec(v: &[f64]) -> RayleighParams {
+    RayleighParams {
+        alpha: v[0].abs(),
+        beta: v[1].exp(),
+        gamma: v[2].exp(),
+        sigma: v[3].exp(),
+    }
+}
+
+struct Cost<'a, 'b>(&'b Objective<'a>);
+
+impl CostFunction for Cost<'_, '_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, v: &Self::Param) -> Result<f64, ArgminError> {
+        let m = self.0.hybrid(&from_vec(v));
+        Ok(if m.is_finite() { m } else { 1e300 })
+    }
+}
+
+/// (α, β) of the Rayleigh circle through two (f, d) points (eq. 8), if both are ≥ 0.
+pub fn circle_through(a: &DampedMode, b: &DampedMode) -> Option<(f64, f64)> {
+    let (w1, w2) = (TAU * a.freq_hz, TAU * b.freq_hz);
+    let (d1, d2) = (a.damping_per_s, b.damping_per_s);
+    if (d1 - d2).abs() < 1e-12 * (d1 + d2).max(1e-300) {
+        return None;
+    }
+    // ω² + (d − y_c)² = R², y_c = 1/β, R² = (1 − αβ)/β².
+    let yc = (w1 * w1 - w2 * w2 + d1 * d1 - d2 * d2) / (2.0 * (d1 - d2));
+    if !(yc > 0.0) {
+        return None;
+    }
+    let beta = 1.0 / yc;
+    let r2 = w1 * w1 + (d1 - yc).powi(2);
+    let alpha = (1.0 - r2 * beta * beta) / beta;
+    (alpha >= -1e-9 * yc && beta.is_finite()).then_some((alpha.max(0.0), beta))
+}
+
+/// The starting points of §5.3.
+pub fn starting_points(
+    side: &ModalSide,
+    reference: &[DampedMode],
+    dominant: usize,
+) -> Vec<RayleighParams> {
+    let mut by_energy: Vec<&DampedMode> = reference.iter().collect();
+    let energy = |m: &DampedMode| m.amplitude * m.amplitude / m.damping_per_s.max(1e-9);
+    by_energy.sort_by(|a, b| energy(b).total_cmp(&energy(a)));
+    by_energy.truncate(dominant.max(2));
+    let Some(top) = by_energy.first().copied() else {
+        return Vec::new();
+    };
+    // "No cheaper, louder" eigenvalues.
+    let mut pareto: Vec<(f64, f64)> = Vec::new();
+    let mut best_gain = 0.0f64;
+    for (&l, &g) in side.eigenvalues0.iter().zip(&side.gains0) {
+        if l > 0.0 && g.abs() > best_gain {
+            best_gain = g.abs();
+            pareto.push((l, g.abs()));
+        }
+    }
+    let mut out = Vec::new();
+    for i in 0..by_energy.len() {
+        for j in i + 1..by_energy.len() {
+            let Some((alpha, beta)) = circle_through(by_energy[i], by_energy[j]) else {
+                continue;
+            };
+            for &(l0, g0) in &pareto {
+                // Put this mode on the top reference mode: ω_d² = λ − d², d = (α + βλ)/2,
+                // solved for λ by a few fixed-point steps from λ = ω².
+                let w2 = (TAU * top.freq_hz).powi(2);
+                let mut lambda = w2;
+                for _ in 0..20 {
+                    let d = 0.5 * (alpha + beta * lambda);
+                    lambda = w2 + d * d;
+                }
+                let p = RayleighParams {
+                    alpha,
+                    beta,
+                    gamma: side.gamma0 * lambda / l0,
+                    sigma: top.amplitude / g0,
+                };
+                if p.is_valid() {
+                    out.push(p);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Estimates {α, β, γ, σ} from an onset-aligned recording `signal`, its analysed modes and the
+/// object's modal side.
+pub fn estimate(
+    side: &ModalSide,
+    signal: &[f64],
+    sample_rate_hz: f64,
+    reference_modes: &[DampedMode],
+    params: &EstimateParams,
+    on_start_done: &(dyn Fn() + Sync),
+) -> Result<Estimate, EstimateError> {
+    if reference_modes.is_empty() {
+        return Err(EstimateError::NoReferenceModes);
+    }
+    if !side
+        .eigenvalues0
+        .iter()
+        .zip(&side.gains0)
+        .any(|(&l, &g)| l > 0.0 && g != 0.0)
+    {
+        return Err(EstimateError::NoModelModes);
+    }
+    let objective = Objective::new(
+        side,
+        signal,
+        sample_rate_hz,
+        reference_modes,
+        params.floor_db,
+    )?;
+    let starts = starting_points(side, reference_modes, params.dominant);
+    if starts.is_empty() {
+        return Err(EstimateError::NoStart);
+    }
+    let results: Vec<(RayleighParams, f64, usize)> = starts
+        .par_iter()
+        .map(|p0| {
+            let r = refine_start(&objective, p0, params.max_iterations);
+            on_start_done();
+            r
+        })
+        .collect();
+    let evaluations = results.iter().map(|r| r.2).sum();
+    let best = results
+        .iter()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .ok_or(EstimateError::NoStart)?;
+    Ok(Estimate {
+        params: best.0,
+        metric: best.1,
+        starts: starts.len(),
+        evaluations,
+    })
+}
+
+/// Nelder–Mead from one start; returns the best parameters, their metric and the evaluations.
+fn refine_start(
+    objective: &Objective<'_>,
+    p0: &RayleighParams,
+    max_iterations: u64,
+) -> (RayleighParams, f64, usize) {
+    let v0 = to_vec(p0);
+    let mut simplex = vec![v0.clone()];
+    for i in 0..4 {
+        let mut v = v0.clone();
+        v[i] += if i == 0 { 0.2 * p0.alpha.max(1.0) } else { 0.1 };
+        simplex.push(v);
+    }
+    let start_metric = objective.hybrid(p0);
+    let Ok(solver) = NelderMead::new(simplex).with_sd_tolerance(1e-9) else {
+        return (*p0, start_metric, 1);
+    };
+    match Executor::new(Cost(objective), solver)
+        .configure(|s| s.max_iters(max_iterations))
+        .run()
+    {
+        Ok(res) => {
+            let evals = res.state.counts.values().sum::<u64>() as usize;
+            match res.state.best_param.clone() {
+                Some(v) => {
+                    let p = from_vec(&v);
+                    (p, objective.hybrid(&p), evals.max(1))
+                }
+                None => (*p0, start_metric, evals.max(1)),
+            }
+        }
+        Err(_) => (*p0, start_metric, 1),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use resound_core::damped::synthesize;
+
+    /// A plate-like spectrum: 40 modes from 300 Hz, growing roughly like n^1.3, with gains that
+    /// fall and vary.
+    fn side() -> ModalSide {
+        let gamma0 = 1.0e7;
+        let eigenvalues0: Vec<f64> = (0..40)
+            .map(|n| (TAU * 300.0 * (1.0 + n as f64).powf(1.3)).powi(2))
+            .collect();
+        let gains0: Vec<f64> = (0..40)
+            .map(|n| 1e-5 / (1.0 + n as f64) * (1.0 + 0.6 * ((n * 7 % 5) as f64 - 2.0) / 2.0))
+            .collect();
+        ModalSide {
+            eigenvalues0,
+            gains0,
+            gamma0,
+        }
+    }
+
+    #[test]
+    fn circle_through_recovers_rayleigh_parameters() {
+        let p = RayleighParams {
+            alpha: 8.0,
+            beta: 3e-7,
+            gamma: 1.0,
+            sigma: 1.0,
+        };
+        let l: Vec<f64> = [(TAU * 500.0f64).powi(2), (TAU * 4000.0f64).powi(2)].to_vec();
+        let m = forward_modes(&l, &[1.0, 1.0], 1.0, &p, 1e9);
+        let (a, b) = circle_through(&m[0], &m[1]).unwrap();
+        assert!(
+            (a / 8.0 - 1.0).abs() < 1e-6 && (b / 3e-7 - 1.0).abs() < 1e-6,
+            "{a} {b}"
+        );
+    }
+
+    #[test]
+    fn recovers_known_parameters_from_their_own_sound() {
+        let s = side();
+        let truth = RayleighParams {
+            alpha: 6.0,
+            beta: 2e-7,
+            gamma: 2.3e7,
+            sigma: 4.0e3,
+        };
+        let fs = 44100.0;
+        let modes = forward_modes(&s.eigenvalues0, &s.gains0, s.gamma0, &truth, 0.5 * fs);
+        let x = synthesize(&modes, fs, 22050);
+        let est = estimate(&s, &x, fs, &modes, &EstimateParams::default(), &|| {}).unwrap();
+        let p = est.params;
+        for (name, got, want) in [
+            ("alpha", p.alpha, truth.alpha),
+            ("beta", p.beta, truth.beta),
+            ("gamma", p.gamma, truth.gamma),
+            ("sigma", p.sigma, truth.sigma),
+        ] {
+            assert!(
+                (got / want - 1.0).abs() < 0.01,
+                "{name}: {got} vs {want} ({est:?})"
+            );
+        }
+        assert!(est.starts >= 1);
+    }
+
+    #[test]
+    fn refuses_what_it_cannot_do() {
+        let s = side();
+        let x = vec![0.1; 4410];
+        assert_eq!(
+            estimate(&s, &x, 44100.0, &[], &EstimateParams::default(), &|| {}).unwrap_err(),
+            EstimateError::NoReferenceModes
+        );
+        let empty = ModalSide {
+            eigenvalues0: vec![0.0],
+            gains0: vec![1.0],
+            gamma0: 1.0,
+        };
+        let m = [DampedMode::new(500.0, 3.0, 0.1)];
+        assert_eq!(
+            estimate(&empty, &x, 44100.0, &m, &EstimateParams::default(), &|| {}).unwrap_err(),
+            EstimateError::NoModelModes
+        );
+        assert!(matches!(
+            estimate(
+                &s,
+                &x[..10],
+                44100.0,
+                &m,
+                &EstimateParams::default(),
+                &|| {}
+            )
+            .unwrap_err(),
+            EstimateError::TooShort(10)
+        ));
+    }
+}
