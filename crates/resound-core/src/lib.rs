@@ -19,8 +19,10 @@ pub mod damped;
 pub mod geometry;
 pub mod material;
 pub mod modal_model;
+pub mod rayleigh;
 pub mod units;
 
 pub use damped::DampedMode;
 pub use material::{Material, MaterialError};
 pub use modal_model::{ModalModel, ModalModelError};
+pub use rayleigh::{Provenance, SoundMaterial};

@@ -8,11 +8,13 @@
 //! | tet mesh | `.msh` (gmsh 2.2 and 4.1, ASCII and binary), `.node`+`.ele` (TetGen), `.mesh` (MEDIT) | read; surface-only files load as surfaces |
 //! | modal model | `.rmodal` | versioned little-endian binary with a checksum ([`model_file`]) |
 //! | matrices | Matrix Market `.mtx` | `coordinate real symmetric` (lower triangle) |
+//! | material | `.json` material files; SQLite material library ([`library`]) |
 //! | audio | `.wav` (PCM 8/16/24/32, float 32/64), `.flac`, `.ogg` (Vorbis), `.mp3` | read via Symphonia; WAV written via hound |
 #![warn(missing_docs)]
 
 pub mod atomic;
 pub mod audio;
+pub mod library;
 pub mod mesh;
 pub mod model_file;
 pub mod mtx;

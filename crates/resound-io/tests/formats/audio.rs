@@ -219,3 +219,48 @@ fn wav_write_round_trip_is_atomic() {
     assert!(!p.exists());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 }
+
+#[test]
+fn material_library_round_trip() {
+    use resound_core::SoundMaterial;
+    use resound_io::library::{read_material, write_material, Library};
+    let dir = tempfile::tempdir().unwrap();
+    let db = dir.path().join("sub/materials.sqlite");
+    let mut lib = Library::open(&db).unwrap();
+    assert_eq!(
+        lib.names().unwrap(),
+        ["glass", "metal", "plastic", "porcelain", "wood"]
+    );
+    let wood = lib.get("wood").unwrap().unwrap();
+    assert_eq!(wood.alpha, 2.1364);
+    let oak = SoundMaterial::rayleigh("oak", 3.0, 2e-6, 7e5, 1e-6);
+    lib.put(&oak).unwrap();
+    drop(lib);
+    // Reopening keeps what was written and does not seed again.
+    let mut lib = Library::open(&db).unwrap();
+    assert_eq!(lib.get("oak").unwrap().unwrap(), oak);
+    assert_eq!(lib.names().unwrap().len(), 6);
+    assert!(lib.remove("oak").unwrap());
+    assert!(!lib.remove("oak").unwrap());
+    assert!(lib.get("oak").unwrap().is_none());
+    // Invalid materials are refused and leave the library unchanged.
+    let bad = SoundMaterial {
+        gamma: -1.0,
+        ..oak.clone()
+    };
+    assert!(lib.put(&bad).is_err());
+    assert_eq!(lib.names().unwrap().len(), 5);
+    // Files.
+    let f = dir.path().join("oak.json");
+    write_material(&f, &oak).unwrap();
+    assert_eq!(read_material(&f).unwrap(), oak);
+    std::fs::write(&f, "{\"name\": \"x\"}").unwrap();
+    assert!(read_material(&f)
+        .unwrap_err()
+        .to_string()
+        .contains("not a material file"));
+    // Not a library.
+    let junk = dir.path().join("junk.sqlite");
+    std::fs::write(&junk, vec![7u8; 4096]).unwrap();
+    assert!(Library::open(&junk).is_err());
+}

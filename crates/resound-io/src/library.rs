@@ -1,0 +1,146 @@
+//! The material library: an embedded SQLite database (rusqlite, bundled SQLite) of
+//! [`SoundMaterial`]s, and material files (JSON).
+//!
+//! One table, `materials(name TEXT PRIMARY KEY, json TEXT NOT NULL, updated TEXT NOT NULL)`: the
+//! JSON is the material file itself, so nothing is lost between file and library. Every write
+//! is one transaction. A new library is seeded with the five materials of Ren 2013 Table I.
+//! Default location: `$RESOUND_LIBRARY`, else `$XDG_DATA_HOME/resound/materials.sqlite`, else
+//! `~/.local/share/resound/materials.sqlite`.
+
+use crate::{atomic::write_atomic, io_err, parse_err, Result};
+use resound_core::SoundMaterial;
+use rusqlite::{params, Connection, OptionalExtension};
+use std::path::{Path, PathBuf};
+
+/// An open material library.
+pub struct Library {
+    conn: Connection,
+    path: PathBuf,
+}
+
+fn db_err(path: &Path, e: rusqlite::Error) -> crate::IoError {
+    parse_err(path, format!("material library: {e}"))
+}
+
+/// The default library path (see the module docs); `None` without a home directory.
+pub fn default_library_path() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("RESOUND_LIBRARY") {
+        return Some(PathBuf::from(p));
+    }
+    let base = std::env::var_os("XDG_DATA_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local/share")))?;
+    Some(base.join("resound").join("materials.sqlite"))
+}
+
+impl Library {
+    /// Opens (creating and seeding when new) the library at `path`.
+    ///
+    /// # Errors
+    /// File-system and SQLite errors, or a file that is not a Resound library.
+    pub fn open(path: &Path) -> Result<Self> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| io_err(path, e))?;
+        }
+        let mut conn = Connection::open(path).map_err(|e| db_err(path, e))?;
+        let tx = conn.transaction().map_err(|e| db_err(path, e))?;
+        let existed: bool = tx
+            .query_row(
+                "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'materials'",
+                [],
+                |r| r.get::<_, i64>(0),
+            )
+            .map_err(|e| db_err(path, e))?
+            > 0;
+        if !existed {
+            tx.execute(
+                "CREATE TABLE materials (name TEXT PRIMARY KEY, json TEXT NOT NULL, updated TEXT NOT NULL)",
+                [],
+            )
+            .map_err(|e| db_err(path, e))?;
+            for m in SoundMaterial::ren_table_1() {
+                let json = serde_json::to_string(&m).map_err(|e| parse_err(path, e.to_string()))?;
+                tx.execute(
+                    "INSERT INTO materials (name, json, updated) VALUES (?1, ?2, datetime('now'))",
+                    params![m.name, json],
+                )
+                .map_err(|e| db_err(path, e))?;
+            }
+        }
+        tx.commit().map_err(|e| db_err(path, e))?;
+        Ok(Self {
+            conn,
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// Names, sorted.
+    pub fn names(&self) -> Result<Vec<String>> {
+        let mut st = self
+            .conn
+            .prepare("SELECT name FROM materials ORDER BY name")
+            .map_err(|e| db_err(&self.path, e))?;
+        let rows = st
+            .query_map([], |r| r.get::<_, String>(0))
+            .map_err(|e| db_err(&self.path, e))?;
+        rows.collect::<std::result::Result<Vec<_>, _>>()
+            .map_err(|e| db_err(&self.path, e))
+    }
+
+    /// The material called `name`, if any.
+    pub fn get(&self, name: &str) -> Result<Option<SoundMaterial>> {
+        let json: Option<String> = self
+            .conn
+            .query_row(
+                "SELECT json FROM materials WHERE name = ?1",
+                params![name],
+                |r| r.get(0),
+            )
+            .optional()
+            .map_err(|e| db_err(&self.path, e))?;
+        json.map(|j| {
+            serde_json::from_str(&j)
+                .map_err(|e| parse_err(&self.path, format!("material {name:?} is corrupt: {e}")))
+        })
+        .transpose()
+    }
+
+    /// Inserts or replaces `m` (validated first) in one transaction.
+    pub fn put(&mut self, m: &SoundMaterial) -> Result<()> {
+        m.validate().map_err(|e| parse_err(&self.path, e))?;
+        let json = serde_json::to_string(m).map_err(|e| parse_err(&self.path, e.to_string()))?;
+        let tx = self.conn.transaction().map_err(|e| db_err(&self.path, e))?;
+        tx.execute(
+            "INSERT OR REPLACE INTO materials (name, json, updated) VALUES (?1, ?2, datetime('now'))",
+            params![m.name, json],
+        )
+        .map_err(|e| db_err(&self.path, e))?;
+        tx.commit().map_err(|e| db_err(&self.path, e))
+    }
+
+    /// Removes `name`; returns whether it existed.
+    pub fn remove(&mut self, name: &str) -> Result<bool> {
+        let tx = self.conn.transaction().map_err(|e| db_err(&self.path, e))?;
+        let n = tx
+            .execute("DELETE FROM materials WHERE name = ?1", params![name])
+            .map_err(|e| db_err(&self.path, e))?;
+        tx.commit().map_err(|e| db_err(&self.path, e))?;
+        Ok(n > 0)
+    }
+}
+
+/// Reads a material file (JSON) and validates it.
+pub fn read_material(path: &Path) -> Result<SoundMaterial> {
+    let text = std::fs::read_to_string(path).map_err(|e| io_err(path, e))?;
+    let m: SoundMaterial = serde_json::from_str(&text)
+        .map_err(|e| parse_err(path, format!("not a material file: {e}")))?;
+    m.validate().map_err(|e| parse_err(path, e))?;
+    Ok(m)
+}
+
+/// Writes a material file (pretty JSON), atomically.
+pub fn write_material(path: &Path, m: &SoundMaterial) -> Result<()> {
+    m.validate().map_err(|e| parse_err(path, e))?;
+    let text = serde_json::to_string_pretty(m).map_err(|e| parse_err(path, e.to_string()))?;
+    write_atomic(path, |w| w.write_all(text.as_bytes()))
+}
