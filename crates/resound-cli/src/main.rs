@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 mod analyze_cmd;
 mod bench;
+mod estimate_cmd;
 mod mesh_cmd;
 mod modal_cmd;
 mod plot;
@@ -35,6 +36,11 @@ enum Command {
     Mesh(mesh_cmd::MeshCmd),
     /// Find the damped sinusoids (frequency, damping, amplitude, phase) of a recorded strike.
     Analyze(analyze_cmd::AnalyzeArgs),
+    /// Estimate a material (Rayleigh α, β, γ = E/ρ, σ) from a recorded strike, the object's mesh and the hit point.
+    Estimate(estimate_cmd::EstimateArgs),
+    /// List, show, import, export and remove materials in the material library (SQLite).
+    #[command(subcommand)]
+    Materials(estimate_cmd::MaterialsCmd),
     /// Inspect a saved modal model, optionally rescaled to another material or at a hit point.
     Model(modal_cmd::ModelInfoArgs),
     /// Run the benchmarks and print their figures (table or JSON).
@@ -52,6 +58,8 @@ fn main() -> ExitCode {
         Command::Mesh(c) => mesh_cmd::run(c),
         Command::Model(a) => modal_cmd::run_info(a),
         Command::Analyze(a) => analyze_cmd::run(a),
+        Command::Estimate(a) => estimate_cmd::run(a),
+        Command::Materials(c) => estimate_cmd::run_materials(c),
         Command::Bench(c) => bench::run(c),
         Command::BenchCase(a) => bench::run_case(a),
     };

@@ -152,9 +152,9 @@ pub fn run(a: ModalArgs) -> Result<()> {
 }
 
 /// Gains per mode, surface point (m), unit normal, distance from the query (m).
-type Hit = (Vec<f64>, [f64; 3], [f64; 3], f64);
+pub type Hit = (Vec<f64>, [f64; 3], [f64; 3], f64);
 
-fn hit_gains(model: &ModalModel, h: [f64; 3]) -> Result<Hit> {
+pub fn hit_gains(model: &ModalModel, h: [f64; 3]) -> Result<Hit> {
     let (lo, hi) = resound::core::geometry::bbox(&model.vertices);
     let diag = (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt();
     let sp = model.locate_hit(h, 0.05 * diag)?;

@@ -219,7 +219,15 @@ fn bad_input_exits_2_with_a_message() {
 fn help_explains_each_subcommand() {
     let dir = tempfile::tempdir().unwrap();
     let h = ok(&resound(&["--help"], dir.path()));
-    for cmd in ["modal", "mesh", "model", "analyze", "bench"] {
+    for cmd in [
+        "modal",
+        "mesh",
+        "model",
+        "analyze",
+        "estimate",
+        "materials",
+        "bench",
+    ] {
         assert!(
             h.lines()
                 .any(|l| l.trim_start().starts_with(cmd) && l.len() > cmd.len() + 20),
@@ -405,5 +413,166 @@ fn bench_analyze_reports_the_protocols() {
             .as_f64()
             .unwrap()
             < 1e-6
+    );
+}
+
+#[test]
+fn estimate_recovers_a_known_material_and_fills_the_library() {
+    use resound::core::{damped::synthesize, Material};
+    use resound::estimate::{forward_modes, RayleighParams};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "bar",
+            "--size",
+            "0.3,0.02,0.01",
+            "-o",
+            "bar.obj",
+        ],
+        d,
+    ));
+    ok(&resound(
+        &[
+            "modal",
+            "bar.obj",
+            "--material",
+            "steel",
+            "--modes",
+            "30",
+            "-o",
+            "bar.rmodal",
+        ],
+        d,
+    ));
+    let model = resound::io::model_file::load(&d.join("bar.rmodal")).unwrap();
+    let sp = model.locate_hit([0.1, 0.0, 0.005], 0.01).unwrap();
+    let steel = Material::preset("steel").unwrap();
+    let gamma0 = steel.youngs_modulus / steel.density;
+    let truth = RayleighParams {
+        alpha: 4.0,
+        beta: 4e-8,
+        gamma: 0.8 * gamma0,
+        sigma: 500.0,
+    };
+    let modes = forward_modes(
+        &model.eigenvalues,
+        &model.gains(&sp),
+        gamma0,
+        &truth,
+        22050.0,
+    );
+    let x: Vec<f32> = synthesize(&modes, 44100.0, 44100)
+        .iter()
+        .map(|&v| v as f32)
+        .collect();
+    let peak = x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    assert!(peak > 0.01 && peak < 1.0, "peak {peak}");
+    resound::io::write_wav(
+        &d.join("hit.wav"),
+        &x,
+        44100,
+        resound::io::WavFormat::Float32,
+    )
+    .unwrap();
+    let out = ok(&resound(
+        &[
+            "estimate",
+            "hit.wav",
+            "--mesh",
+            "bar.rmodal",
+            "--hit",
+            "0.1,0,0.005",
+            "--json",
+            "--name",
+            "barsteel",
+            "-o",
+            "barsteel.json",
+            "--library",
+            "lib.sqlite",
+        ],
+        d,
+    ));
+    let v: Value = serde_json::from_str(&out).unwrap();
+    for (key, want) in [
+        ("alpha", truth.alpha),
+        ("beta", truth.beta),
+        ("gamma", truth.gamma),
+        ("sigma", truth.sigma),
+    ] {
+        let got = v[key].as_f64().unwrap();
+        assert!(
+            (got / want - 1.0).abs() < 0.02,
+            "{key}: {got} vs {want}: {v}"
+        );
+    }
+    assert!(v["starts"].as_u64().unwrap() >= 1 && v["elapsed_s"].is_number());
+    assert!(d.join("barsteel.json").exists());
+    let list = ok(&resound(
+        &["materials", "list", "--library", "lib.sqlite"],
+        d,
+    ));
+    for name in ["barsteel", "glass", "metal", "plastic", "porcelain", "wood"] {
+        assert!(list.contains(name), "{list}");
+    }
+    let shown: Value = serde_json::from_str(&ok(&resound(
+        &["materials", "show", "barsteel", "--library", "lib.sqlite"],
+        d,
+    )))
+    .unwrap();
+    assert_eq!(shown["provenance"]["mesh"], "bar.rmodal");
+    ok(&resound(
+        &[
+            "materials",
+            "export",
+            "wood",
+            "wood.json",
+            "--library",
+            "lib.sqlite",
+        ],
+        d,
+    ));
+    ok(&resound(
+        &["materials", "remove", "wood", "--library", "lib.sqlite"],
+        d,
+    ));
+    fails_with(
+        &resound(&["materials", "show", "wood", "--library", "lib.sqlite"], d),
+        "no material",
+    );
+    ok(&resound(
+        &[
+            "materials",
+            "import",
+            "wood.json",
+            "--library",
+            "lib.sqlite",
+        ],
+        d,
+    ));
+    fails_with(
+        &resound(
+            &["materials", "import", "bar.obj", "--library", "lib.sqlite"],
+            d,
+        ),
+        "not a material file",
+    );
+    fails_with(
+        &resound(
+            &[
+                "estimate",
+                "hit.wav",
+                "--mesh",
+                "bar.rmodal",
+                "--hit",
+                "0.1,0",
+                "--library",
+                "lib.sqlite",
+            ],
+            d,
+        ),
+        "x,y,z",
     );
 }

@@ -1,0 +1,321 @@
+//! `resound estimate` and `resound materials`: material estimation and the material library.
+
+use crate::modal_cmd::hit_gains;
+use crate::util::{parse_vec3, spinner, stage_message};
+use anyhow::{bail, Context, Result};
+use clap::{Args, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use resound::core::{Material, ModalModel, Provenance, SoundMaterial};
+use resound::estimate::{estimate, estimate::starting_points, EstimateParams, ModalSide};
+use resound::io::library::{default_library_path, read_material, write_material, Library};
+use resound::io::{load_audio, load_mesh, model_file, LoadedMesh};
+use resound::modal::{compute_modal_model, compute_modal_model_from_tets, ModalParams};
+use resound::signal::{analyze, filter::highpass_zero_phase, AnalyzeParams};
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Arguments of `estimate`.
+#[derive(Args, Debug)]
+pub struct EstimateArgs {
+    /// Recording of one strike of the object.
+    pub audio: PathBuf,
+    /// The object: a closed surface or tet mesh, or a saved modal model (.rmodal).
+    #[arg(long)]
+    pub mesh: PathBuf,
+    /// Hit point x,y,z in metres (snapped to the nearest surface point).
+    #[arg(long, allow_hyphen_values = true)]
+    pub hit: String,
+    /// Scale applied to the mesh coordinates (0.001 for millimetres).
+    #[arg(long, default_value_t = 1.0)]
+    pub scale: f64,
+    /// Elastic modes to compute when a mesh is given.
+    #[arg(long, default_value_t = 200)]
+    pub modes: usize,
+    /// Reference material for the modal solve (only E/ρ's ratio matters; ν is kept).
+    #[arg(long, default_value = "ceramic")]
+    pub reference_material: String,
+    /// Zero-phase high-pass before analysis (e.g. 100 against room rumble).
+    #[arg(long, value_name = "HZ")]
+    pub highpass_hz: Option<f64>,
+    /// Store the result in the library under this name.
+    #[arg(long)]
+    pub name: Option<String>,
+    /// Write the material file (JSON) here.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// JSON summary on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Material library (default: $RESOUND_LIBRARY or ~/.local/share/resound/materials.sqlite).
+    #[arg(long)]
+    pub library: Option<PathBuf>,
+}
+
+fn library_path(p: &Option<PathBuf>) -> Result<PathBuf> {
+    match p {
+        Some(p) => Ok(p.clone()),
+        None => default_library_path()
+            .context("no home directory for the default library; pass --library PATH"),
+    }
+}
+
+fn load_model(a: &EstimateArgs) -> Result<ModalModel> {
+    if a.mesh
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("rmodal"))
+    {
+        return Ok(model_file::load(&a.mesh)?);
+    }
+    let material = Material::parse(&a.reference_material)?;
+    let p = ModalParams {
+        n_modes: Some(a.modes),
+        max_freq_hz: None,
+        ..Default::default()
+    };
+    let mesh = load_mesh(&a.mesh, a.scale).context("loading the mesh")?;
+    let pb = spinner("modal");
+    let progress = |s| stage_message(&pb, s);
+    let r = match &mesh {
+        LoadedMesh::Surface(s) => compute_modal_model(s, &material, &p, &progress),
+        LoadedMesh::Tets(t) => {
+            compute_modal_model_from_tets(t, &material, &p, &progress).map(|(m, i, _)| (m, i))
+        }
+    };
+    pb.finish_and_clear();
+    Ok(r.context("modal analysis")?.0)
+}
+
+/// Runs `estimate`.
+pub fn run(a: EstimateArgs) -> Result<()> {
+    let hit = parse_vec3(&a.hit)?;
+    if let Some(n) = &a.name {
+        SoundMaterial::rayleigh(n, 1.0, 1.0, 1.0, 1.0)
+            .validate()
+            .map_err(anyhow::Error::msg)?;
+    }
+    let clip = load_audio(&a.audio)?;
+    let x = clip.mono(None, &a.audio)?;
+    let fs = f64::from(clip.sample_rate_hz);
+    let params = AnalyzeParams {
+        highpass_hz: a.highpass_hz,
+        ..AnalyzeParams::default()
+    };
+    let analysis =
+        analyze(&x, fs, &params).with_context(|| format!("analysing {}", a.audio.display()))?;
+    for w in &analysis.warnings {
+        eprintln!("warning: {w}");
+    }
+    if analysis.modes.is_empty() {
+        bail!(
+            "no modes found in {}: nothing to estimate from",
+            a.audio.display()
+        );
+    }
+    let model = load_model(&a)?;
+    let (gains, point, _, distance) = hit_gains(&model, hit)?;
+    if distance > 1e-6 {
+        eprintln!(
+            "note: hit point {:?} is {:.2} mm off the surface; using the nearest surface point {:?}",
+            hit,
+            distance * 1e3,
+            point
+        );
+    }
+    let gamma0 = model.material.youngs_modulus / model.material.density;
+    let side = ModalSide {
+        eigenvalues0: model.eigenvalues.clone(),
+        gains0: gains,
+        gamma0,
+    };
+    let band_top = analysis.modes.iter().map(|m| m.freq_hz).fold(0.0, f64::max);
+    if model.eigenvalues.is_empty() {
+        bail!("the modal model has no modes");
+    }
+    let onset = (analysis.onset_s * fs).round() as usize;
+    let mut seg = x[onset.min(x.len())..].to_vec();
+    if let Some(f) = a.highpass_hz {
+        highpass_zero_phase(&mut seg, f, fs);
+    }
+    seg.truncate(analysis.samples);
+    let ep = EstimateParams::default();
+    let n_starts = starting_points(&side, &analysis.modes, ep.dominant).len();
+    let pb = ProgressBar::new(n_starts as u64);
+    pb.set_style(
+        ProgressStyle::with_template("{prefix} [{elapsed}] {bar:30} {pos}/{len} starts")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    pb.set_prefix("estimate");
+    let t0 = std::time::Instant::now();
+    let tick = || pb.inc(1);
+    let est = estimate(&side, &seg, fs, &analysis.modes, &ep, &tick)
+        .with_context(|| format!("estimating the material of {}", a.audio.display()))?;
+    pb.finish_and_clear();
+    let elapsed_s = t0.elapsed().as_secs_f64();
+    let name = a.name.clone().unwrap_or_else(|| {
+        a.audio
+            .file_stem()
+            .map_or("estimated".into(), |s| s.to_string_lossy().into_owned())
+    });
+    let material = SoundMaterial {
+        provenance: Some(Provenance {
+            recording: a.audio.display().to_string(),
+            mesh: a.mesh.display().to_string(),
+            hit: point,
+            metric: est.metric,
+            features: analysis.modes.clone(),
+        }),
+        ..SoundMaterial::rayleigh(
+            &name,
+            est.params.alpha,
+            est.params.beta,
+            est.params.gamma,
+            est.params.sigma,
+        )
+    };
+    if let Some(o) = &a.output {
+        write_material(o, &material)?;
+    }
+    if a.name.is_some() {
+        let mut lib = Library::open(&library_path(&a.library)?)?;
+        lib.put(&material)?;
+    }
+    let lowest_model_hz = model.freq_hz(0) * (est.params.gamma / gamma0).sqrt();
+    if lowest_model_hz > band_top {
+        eprintln!("warning: the object's lowest mode ({lowest_model_hz:.0} Hz) lies above every recorded mode");
+    }
+    if a.json {
+        let v = json!({
+            "name": name,
+            "alpha": est.params.alpha,
+            "beta": est.params.beta,
+            "gamma": est.params.gamma,
+            "sigma": est.params.sigma,
+            "metric": est.metric,
+            "elapsed_s": elapsed_s,
+            "starts": est.starts,
+            "evaluations": est.evaluations,
+            "reference_modes": analysis.modes.len(),
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!(
+            "{name}: alpha {:.4e} 1/s, beta {:.4e} s, gamma {:.4e} m²/s², sigma {:.4e}; metric {:.4e} ({} starts, {} evaluations, {:.1} s)",
+            est.params.alpha, est.params.beta, est.params.gamma, est.params.sigma, est.metric, est.starts, est.evaluations, elapsed_s
+        );
+    }
+    Ok(())
+}
+
+/// `resound materials …`.
+#[derive(Subcommand, Debug)]
+pub enum MaterialsCmd {
+    /// List the library's materials.
+    List(LibArg),
+    /// Print one material as JSON.
+    Show(NameArg),
+    /// Add (or replace) a material from a material file.
+    Import(FileArg),
+    /// Write one material to a material file.
+    Export(ExportArg),
+    /// Remove a material.
+    Remove(NameArg),
+}
+
+/// Library location.
+#[derive(Args, Debug)]
+pub struct LibArg {
+    /// Material library path.
+    #[arg(long)]
+    pub library: Option<PathBuf>,
+}
+
+/// A material name.
+#[derive(Args, Debug)]
+pub struct NameArg {
+    /// Material name.
+    pub name: String,
+    /// Material library path.
+    #[arg(long)]
+    pub library: Option<PathBuf>,
+}
+
+/// A material file.
+#[derive(Args, Debug)]
+pub struct FileArg {
+    /// Material file (JSON).
+    pub file: PathBuf,
+    /// Material library path.
+    #[arg(long)]
+    pub library: Option<PathBuf>,
+}
+
+/// Export arguments.
+#[derive(Args, Debug)]
+pub struct ExportArg {
+    /// Material name.
+    pub name: String,
+    /// Output material file (JSON).
+    pub file: PathBuf,
+    /// Material library path.
+    #[arg(long)]
+    pub library: Option<PathBuf>,
+}
+
+fn open(p: &Option<PathBuf>) -> Result<Library> {
+    let path = library_path(p)?;
+    Library::open(&path).with_context(|| format!("opening the material library {}", path.display()))
+}
+
+fn get(lib: &Library, name: &str) -> Result<SoundMaterial> {
+    lib.get(name)?.with_context(|| {
+        format!(
+            "no material {name:?} in the library (known: {})",
+            lib.names().unwrap_or_default().join(", ")
+        )
+    })
+}
+
+/// Runs `materials`.
+pub fn run_materials(c: MaterialsCmd) -> Result<()> {
+    match c {
+        MaterialsCmd::List(a) => {
+            let lib = open(&a.library)?;
+            for n in lib.names()? {
+                let m = get(&lib, &n)?;
+                println!(
+                    "{n:<16} alpha {:.4e}  beta {:.4e}  gamma {:.4e}  sigma {:.4e}{}",
+                    m.alpha,
+                    m.beta,
+                    m.gamma,
+                    m.sigma,
+                    if m.provenance.is_some() {
+                        "  (estimated)"
+                    } else {
+                        ""
+                    }
+                );
+            }
+        }
+        MaterialsCmd::Show(a) => {
+            let lib = open(&a.library)?;
+            println!("{}", serde_json::to_string_pretty(&get(&lib, &a.name)?)?);
+        }
+        MaterialsCmd::Import(a) => {
+            let m = read_material(&a.file)?;
+            let mut lib = open(&a.library)?;
+            lib.put(&m)?;
+            eprintln!("imported {:?}", m.name);
+        }
+        MaterialsCmd::Export(a) => {
+            let lib = open(&a.library)?;
+            write_material(&a.file, &get(&lib, &a.name)?)?;
+        }
+        MaterialsCmd::Remove(a) => {
+            let mut lib = open(&a.library)?;
+            if !lib.remove(&a.name)? {
+                bail!("no material {:?} in the library", a.name);
+            }
+        }
+    }
+    Ok(())
+}
