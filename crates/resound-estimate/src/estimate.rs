@@ -16,7 +16,7 @@ use crate::image::{image_of_modes, image_of_signal, ImageGrid, LoudnessImage};
 use argmin::core::{CostFunction, Error as ArgminError, Executor};
 use argmin::solver::neldermead::NelderMead;
 use rayon::prelude::*;
-use resound_core::DampedMode;
+use resound_core::{damped::synthesize, DampedMode};
 use std::f64::consts::TAU;
 
 /// The object side of the estimation: a modal model's eigenvalues at the reference material and
@@ -40,6 +40,17 @@ pub struct EstimateParams {
     pub max_iterations: u64,
     /// Cells quieter than this many dB below the loudest reference cell count as the floor.
     pub floor_db: f64,
+    /// How the estimated loudness image is computed.
+    pub route: ImageRoute,
+}
+
+/// How [`Objective::hybrid`] computes the estimated loudness image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageRoute {
+    /// In closed form from the modes (fast; the default).
+    Analytic,
+    /// The straightforward way: synthesize the modes, STFT, band sums (for comparison).
+    Synthesized,
 }
 
 impl Default for EstimateParams {
@@ -48,6 +59,7 @@ impl Default for EstimateParams {
             dominant: 5,
             max_iterations: 400,
             floor_db: 50.0,
+            route: ImageRoute::Analytic,
         }
     }
 }
@@ -89,6 +101,8 @@ pub struct Objective<'a> {
     reference_image: LoudnessImage,
     reference_points: Vec<FeaturePoint>,
     max_freq_hz: f64,
+    route: ImageRoute,
+    samples: usize,
 }
 
 impl<'a> Objective<'a> {
@@ -99,6 +113,7 @@ impl<'a> Objective<'a> {
         sample_rate_hz: f64,
         reference_modes: &[DampedMode],
         floor_db: f64,
+        route: ImageRoute,
     ) -> Result<Self, EstimateError> {
         let grid = ImageGrid::new(sample_rate_hz, signal.len())
             .ok_or(EstimateError::TooShort(signal.len()))?;
@@ -111,6 +126,8 @@ impl<'a> Objective<'a> {
             reference_image,
             reference_points: reference_modes.iter().map(FeaturePoint::of).collect(),
             max_freq_hz: 0.5 * sample_rate_hz,
+            route,
+            samples: signal.len(),
         })
     }
 
@@ -131,7 +148,14 @@ impl<'a> Objective<'a> {
             return f64::INFINITY;
         }
         let modes = self.modes(p);
-        let psycho = image_of_modes(&modes, &self.grid).distance(&self.reference_image);
+        let image = match self.route {
+            ImageRoute::Analytic => image_of_modes(&modes, &self.grid),
+            ImageRoute::Synthesized => image_of_signal(
+                &synthesize(&modes, self.grid.sample_rate_hz, self.samples),
+                &self.grid,
+            ),
+        };
+        let psycho = image.distance(&self.reference_image);
         let points: Vec<FeaturePoint> = modes.iter().map(FeaturePoint::of).collect();
         let mrp = match_ratio(&self.reference_points, &points)
             * match_ratio(&points, &self.reference_points);
@@ -207,12 +231,24 @@ pub fn starting_points(
             pareto.push((l, g.abs()));
         }
     }
-    let mut out = Vec::new();
+    let mut circles: Vec<(f64, f64)> = Vec::new();
     for i in 0..by_energy.len() {
         for j in i + 1..by_energy.len() {
-            let Some((alpha, beta)) = circle_through(by_energy[i], by_energy[j]) else {
-                continue;
-            };
+            circles.extend(circle_through(by_energy[i], by_energy[j]));
+        }
+    }
+    if circles.is_empty() {
+        // One usable mode (or no valid circle): the family of circles through the dominant
+        // mode, d = (α + βλ)/2 split between α and β in five ways.
+        let lambda = (TAU * top.freq_hz).powi(2) + top.damping_per_s.powi(2);
+        for share in [0.0, 0.25, 0.5, 0.75, 0.95] {
+            let beta = share * 2.0 * top.damping_per_s / lambda;
+            circles.push((2.0 * top.damping_per_s * (1.0 - share), beta));
+        }
+    }
+    let mut out = Vec::new();
+    for &(alpha, beta) in &circles {
+        {
             for &(l0, g0) in &pareto {
                 // Put this mode on the top reference mode: ω_d² = λ − d², d = (α + βλ)/2,
                 // solved for λ by a few fixed-point steps from λ = ω².
@@ -264,6 +300,7 @@ pub fn estimate(
         sample_rate_hz,
         reference_modes,
         params.floor_db,
+        params.route,
     )?;
     let starts = starting_points(side, reference_modes, params.dominant);
     if starts.is_empty() {
@@ -328,7 +365,6 @@ fn refine_start(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use resound_core::damped::synthesize;
 
     /// A plate-like spectrum: 40 modes from 300 Hz, growing roughly like n^1.3, with gains that
     /// fall and vary.

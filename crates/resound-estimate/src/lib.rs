@@ -1,16 +1,18 @@
 //! Resound material estimation (Ren 2013 §5) — in progress.
 //!
-//! Present so far: the forward model that maps a modal model and Rayleigh parameters
-//! {α, β, γ, σ} to damped sinusoids ([`forward`], Ren eqs. 6–12), and the psychoacoustic scales
-//! the image-domain metric is built on ([`psycho`]: ISO 226:2003 equal loudness, phon ↔ sone,
-//! critical-band rate). The metrics, the optimizer and the material library follow.
+//! - [`forward`]: modal model + Rayleigh parameters {α, β, γ, σ} → damped sinusoids (eqs. 6–12).
+//! - [`psycho`]: ISO 226:2003 equal loudness, phon ↔ sone, critical-band rate.
+//! - [`image`]: the loudness image (eq. 19), by STFT or in closed form from modes.
+//! - [`features`]: the Match Ratio Product (eqs. 20–26).
+//! - [`estimate`]: the hybrid metric (eq. 27), §5.3 starting points, multi-start Nelder–Mead.
 #![warn(missing_docs)]
 
+pub mod benchmark;
 pub mod estimate;
 pub mod features;
 pub mod forward;
 pub mod image;
 pub mod psycho;
 
-pub use estimate::{estimate, Estimate, EstimateError, EstimateParams, ModalSide};
+pub use estimate::{estimate, Estimate, EstimateError, EstimateParams, ImageRoute, ModalSide};
 pub use forward::{forward_modes, RayleighParams};
