@@ -22,6 +22,21 @@ pub enum BenchCmd {
     /// Recording analysis: Ren's 100-sinusoid protocol, noisy mixtures against the Cramér–Rao
     /// bound, time per second of audio; stage 1 alone (Ren's method) for comparison.
     Analyze(AnalyzeBenchArgs),
+    /// Material estimation: Ren's Fig. 9 protocol on Spot (three Table I-like materials,
+    /// noise-free and 40 dB) with the default (auto) image route, and noise-free with the
+    /// closed-form and the straightforward synthesize+STFT image each.
+    Estimate(EstimateBenchArgs),
+}
+
+/// Arguments of `bench estimate`.
+#[derive(Args, Debug)]
+pub struct EstimateBenchArgs {
+    /// JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Skip the closed-form / synthesize+STFT comparison rows.
+    #[arg(long)]
+    pub no_synthesized: bool,
 }
 
 /// Arguments of `bench analyze`.
@@ -216,6 +231,7 @@ pub fn run(c: BenchCmd) -> Result<()> {
     let a = match c {
         BenchCmd::Modal(a) => a,
         BenchCmd::Analyze(a) => return run_analyze(a),
+        BenchCmd::Estimate(a) => return run_estimate(a),
     };
     let exe = std::env::current_exe().context("locating the resound binary")?;
     let dofs: Vec<usize> = crate::util::parse_list(&a.dofs)?
@@ -378,6 +394,64 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
     }
     if a.json {
         println!("{}", serde_json::to_string_pretty(&Value::Object(out))?);
+    }
+    Ok(())
+}
+
+fn run_estimate(a: EstimateBenchArgs) -> Result<()> {
+    use resound::estimate::benchmark::{recovery_case, table_cases};
+    use resound::estimate::{ImageRoute, ModalSide};
+    let (mesh, ceramic) = bench_mesh("spot")?;
+    let p = ModalParams {
+        n_modes: Some(40),
+        max_freq_hz: None,
+        target_voxels: 2500,
+        ..Default::default()
+    };
+    let (model, _) = resound::modal::compute_modal_model(&mesh, &ceramic, &p, &|_| {})?;
+    let sp = model.locate_hit([-0.0706, 0.1061, -0.0301], 0.02)?;
+    let side = ModalSide {
+        eigenvalues0: model.eigenvalues.clone(),
+        gains0: model.gains(&sp),
+        gamma0: ceramic.youngs_modulus / ceramic.density,
+    };
+    let mut runs = vec![(None, ImageRoute::Auto), (Some(40.0), ImageRoute::Auto)];
+    if !a.no_synthesized {
+        runs.push((None, ImageRoute::Analytic));
+        runs.push((None, ImageRoute::Synthesized));
+    }
+    let mut rows = Vec::new();
+    for (name, truth) in table_cases() {
+        for &(snr, route) in &runs {
+            if !a.json {
+                eprintln!("bench estimate: {name}, {route:?}, SNR {snr:?} ...");
+            }
+            let r = recovery_case(&side, name, truth, snr, route, 1).map_err(anyhow::Error::msg)?;
+            if !a.json {
+                println!(
+                    "{:<13} {:<11} {:>6} err alpha {:.2e} beta {:.2e} gamma {:.2e} sigma {:.2e}  {:>3} starts {:>5} evals {:>6.2} s",
+                    r.name,
+                    r.route,
+                    snr.map_or("clean".to_string(), |s| format!("{s} dB")),
+                    r.rel_error[0],
+                    r.rel_error[1],
+                    r.rel_error[2],
+                    r.rel_error[3],
+                    r.starts,
+                    r.evaluations,
+                    r.elapsed_s
+                );
+            }
+            rows.push(r);
+        }
+    }
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(
+                &json!({"benchmark": "estimate", "mesh": "spot (CC0), 0.15 scale, 40 modes", "cases": rows})
+            )?
+        );
     }
     Ok(())
 }

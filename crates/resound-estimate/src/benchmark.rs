@@ -128,6 +128,7 @@ pub fn recovery_case(
     Ok(RecoveryReport {
         name: name.to_string(),
         route: match route {
+            ImageRoute::Auto => "auto".into(),
             ImageRoute::Analytic => "analytic".into(),
             ImageRoute::Synthesized => "synthesized".into(),
         },

@@ -44,9 +44,14 @@ pub struct EstimateParams {
     pub route: ImageRoute,
 }
 
-/// How [`Objective::hybrid`] computes the estimated loudness image.
+/// How [`Objective::hybrid`] computes the estimated loudness image. Both routes give the same
+/// image (to about 1e-6); they differ in cost.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ImageRoute {
+    /// Per evaluation, whichever of the two costs less by the estimates below (the default):
+    /// the closed form wins for light damping and few modes, synthesis + FFT for many heavily
+    /// damped modes, whose closed-form cells spread over hundreds of bins.
+    Auto,
     /// In closed form from the modes (fast; the default).
     Analytic,
     /// The straightforward way: synthesize the modes, STFT, band sums (for comparison).
@@ -59,7 +64,7 @@ impl Default for EstimateParams {
             dominant: 5,
             max_iterations: 400,
             floor_db: 50.0,
-            route: ImageRoute::Analytic,
+            route: ImageRoute::Auto,
         }
     }
 }
@@ -148,8 +153,20 @@ impl<'a> Objective<'a> {
             return f64::INFINITY;
         }
         let modes = self.modes(p);
-        let image = match self.route {
-            ImageRoute::Analytic => image_of_modes(&modes, &self.grid),
+        let route = match self.route {
+            ImageRoute::Auto => {
+                if analytic_cost(&modes, &self.grid)
+                    < synthesized_cost(modes.len(), self.samples, &self.grid)
+                {
+                    ImageRoute::Analytic
+                } else {
+                    ImageRoute::Synthesized
+                }
+            }
+            r => r,
+        };
+        let image = match route {
+            ImageRoute::Analytic | ImageRoute::Auto => image_of_modes(&modes, &self.grid),
             ImageRoute::Synthesized => image_of_signal(
                 &synthesize(&modes, self.grid.sample_rate_hz, self.samples),
                 &self.grid,
@@ -164,6 +181,29 @@ impl<'a> Objective<'a> {
         }
         psycho / mrp
     }
+}
+
+/// Rough cost (ns, calibrated on this machine by `resound bench estimate`) of [`image_of_modes`]:
+/// a column set-up per bin and a complex update per cell.
+fn analytic_cost(modes: &[DampedMode], grid: &ImageGrid) -> f64 {
+    let bin_hz = grid.sample_rate_hz / (2 * grid.window_len) as f64;
+    let frames_per_s = grid.sample_rate_hz / grid.hop as f64;
+    modes
+        .iter()
+        .map(|m| {
+            let width = (16.0 + 8.0 * m.damping_per_s / TAU / bin_hz).min(600.0);
+            let frames =
+                (13.8 / m.damping_per_s.max(1e-9) * frames_per_s + 2.0).min(grid.frames as f64);
+            (2.0 * width + 1.0) * (300.0 + 3.0 * frames)
+        })
+        .sum::<f64>()
+        + 2.0 * (grid.frames * (grid.window_len + 1)) as f64
+}
+
+/// Rough cost (ns) of synthesis + [`image_of_signal`].
+fn synthesized_cost(modes: usize, samples: usize, grid: &ImageGrid) -> f64 {
+    let fft = (2 * grid.window_len) as f64 * ((2 * grid.window_len) as f64).log2();
+    (modes * samples) as f64 + 0.5 * grid.frames as f64 * fft
 }
 
 /// Parameters ↔ the optimizer's unconstrained vector (α, ln β, ln γ, ln σ); α is folded to ≥ 0.

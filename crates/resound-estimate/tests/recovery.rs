@@ -50,7 +50,7 @@ fn table_materials_are_recovered_noise_free_and_at_40_db() {
     for (name, truth) in table_cases() {
         let identifiable_alpha = alpha_share(&side, &truth) > 0.05;
         for (snr, tol, seed) in [(None, 0.01, 1), (Some(40.0), 0.05, 2)] {
-            let r = recovery_case(&side, name, truth, snr, ImageRoute::Analytic, seed).unwrap();
+            let r = recovery_case(&side, name, truth, snr, ImageRoute::Auto, seed).unwrap();
             for (k, e) in ["alpha", "beta", "gamma", "sigma"].iter().zip(r.rel_error) {
                 if *k == "alpha" && !identifiable_alpha {
                     continue;
