@@ -4,7 +4,7 @@
 //! - [`psycho`]: ISO 226:2003 equal loudness, phon ↔ sone, critical-band rate.
 //! - [`image`]: the loudness image (eq. 19), by STFT or in closed form from modes.
 //! - [`features`]: the Match Ratio Product (eqs. 20–26).
-//! - [`estimate`]: the hybrid metric (eq. 27), §5.3 starting points, multi-start Nelder–Mead.
+//! - [`mod@estimate`]: the hybrid metric (eq. 27), §5.3 starting points, multi-start Nelder–Mead.
 #![warn(missing_docs)]
 
 pub mod benchmark;
