@@ -18,10 +18,11 @@ pub struct AnalyzeArgs {
     /// Draw the spectrogram with the modes marked and the (f, d) feature plane to this PNG.
     #[arg(long, value_name = "OUT.png")]
     pub plot: Option<PathBuf>,
-    /// Keep at most this many modes (the strongest).
+    /// Keep at most this many modes (the strongest by level: RMS over the first 0.25 s).
     #[arg(long, default_value_t = 64)]
     pub max_modes: usize,
-    /// Drop modes more than this many dB below the strongest.
+    /// Drop modes whose level (RMS over the first 0.25 s) is more than this many dB below the
+    /// strongest's.
     #[arg(long, default_value_t = 60.0)]
     pub min_db: f64,
     /// Zero-phase 4th-order Butterworth high-pass first (e.g. 100 against room rumble).

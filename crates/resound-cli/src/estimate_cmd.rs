@@ -6,7 +6,9 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use resound::core::{Material, ModalModel, Provenance, SoundMaterial};
-use resound::estimate::{estimate, estimate::starting_points, EstimateParams, ModalSide};
+use resound::estimate::{
+    estimate, estimate::starting_points, estimate::Objective, EstimateParams, ModalSide,
+};
 use resound::io::library::{default_library_path, read_material, write_material, Library};
 use resound::io::{load_audio, load_mesh, model_file, LoadedMesh};
 use resound::modal::{compute_modal_model, compute_modal_model_from_tets, ModalParams};
@@ -46,6 +48,10 @@ pub struct EstimateArgs {
     /// JSON summary on stdout.
     #[arg(long)]
     pub json: bool,
+    /// Draw recorded vs estimated features in the (f, d) plane with the Rayleigh curve, and
+    /// the two loudness images the metric compares, to this PNG.
+    #[arg(long, value_name = "OUT.png")]
+    pub plot: Option<PathBuf>,
     /// Material library (default: $RESOUND_LIBRARY or ~/.local/share/resound/materials.sqlite).
     #[arg(long)]
     pub library: Option<PathBuf>,
@@ -174,6 +180,33 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     };
     if let Some(o) = &a.output {
         write_material(o, &material)?;
+    }
+    if let Some(path) = &a.plot {
+        let objective = Objective::new(&side, &seg, fs, &analysis.modes, ep.floor_db, ep.route)?;
+        let estimated = objective.modes(&est.params);
+        let level = |m: &resound::core::DampedMode| {
+            resound::signal::mode_level(m, resound::signal::LEVEL_WINDOW_S)
+        };
+        let floor = analysis.modes.iter().map(level).fold(0.0, f64::max) * 1e-3;
+        let shown: Vec<_> = estimated
+            .into_iter()
+            .filter(|m| level(m) >= floor)
+            .collect();
+        crate::plot::estimate_png(
+            path,
+            &crate::plot::EstimatePlot {
+                title: &a
+                    .audio
+                    .file_name()
+                    .map_or(String::new(), |s| s.to_string_lossy().into_owned()),
+                reference: &analysis.modes,
+                estimated: &shown,
+                alpha: est.params.alpha,
+                beta: est.params.beta,
+                reference_image: objective.reference_image(),
+                estimated_image: &objective.image(&est.params),
+            },
+        )?;
     }
     if a.name.is_some() {
         let mut lib = Library::open(&library_path(&a.library)?)?;

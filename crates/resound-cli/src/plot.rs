@@ -2,6 +2,8 @@
 
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
+use resound::core::DampedMode;
+use resound::estimate::image::{LoudnessImage, BANDS};
 use resound::io::atomic::write_atomic;
 use resound::signal::stft::Spectrogram;
 use resound::signal::Analysis;
@@ -194,5 +196,164 @@ fn draw_features(
         let r = (3.0 + (level + 60.0).max(0.0) / 6.0) as i32;
         Circle::new((m.freq_hz, m.damping_per_s), r, RED.mix(0.7).filled())
     }))?;
+    Ok(())
+}
+
+/// What `estimate --plot` draws: reference and estimated features with the estimated Rayleigh
+/// curve (Ren 2013 Fig. 11), and the two loudness images compared by the metric.
+pub struct EstimatePlot<'a> {
+    /// Recording name for the titles.
+    pub title: &'a str,
+    /// The recording's modes.
+    pub reference: &'a [DampedMode],
+    /// The estimated material's modes on the object.
+    pub estimated: &'a [DampedMode],
+    /// Estimated Rayleigh α (1/s).
+    pub alpha: f64,
+    /// Estimated Rayleigh β (s).
+    pub beta: f64,
+    /// Loudness image of the recording.
+    pub reference_image: &'a LoudnessImage,
+    /// Loudness image of the estimated modes.
+    pub estimated_image: &'a LoudnessImage,
+}
+
+/// Draws an [`EstimatePlot`] to `path` (PNG, written atomically).
+pub fn estimate_png(path: &Path, p: &EstimatePlot<'_>) -> Result<()> {
+    register_font();
+    let (w, h) = (1400u32, 1000u32);
+    let mut pixels = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
+        let (top, bottom) = root.split_vertically(500);
+        draw_estimate_features(&top, p).map_err(|e| anyhow!("plot: {e}"))?;
+        let (l, r) = bottom.split_horizontally(700);
+        let vmax = p
+            .reference_image
+            .data
+            .iter()
+            .chain(&p.estimated_image.data)
+            .copied()
+            .fold(1e-9, f64::max);
+        draw_loudness(&l, p.reference_image, vmax, "recording: loudness (sone)")
+            .map_err(|e| anyhow!("plot: {e}"))?;
+        draw_loudness(&r, p.estimated_image, vmax, "estimate: loudness (sone)")
+            .map_err(|e| anyhow!("plot: {e}"))?;
+        root.present().map_err(|e| anyhow!("plot: {e}"))?;
+    }
+    let img = image_png(&pixels, w, h)?;
+    write_atomic(path, |out| out.write_all(&img))?;
+    Ok(())
+}
+
+fn draw_estimate_features(
+    area: &Area<'_>,
+    p: &EstimatePlot<'_>,
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    let all = || p.reference.iter().chain(p.estimated);
+    let f_max = all().map(|m| m.freq_hz).fold(100.0, f64::max) * 1.3;
+    let f_min = all()
+        .map(|m| m.freq_hz)
+        .fold(f64::INFINITY, f64::min)
+        .min(f_max / 10.0)
+        * 0.7;
+    let d_max = all().map(|m| m.damping_per_s).fold(1.0, f64::max) * 2.0;
+    let d_min = all()
+        .map(|m| m.damping_per_s)
+        .fold(f64::INFINITY, f64::min)
+        .min(d_max / 100.0)
+        * 0.5;
+    let mut chart = ChartBuilder::on(area)
+        .caption(
+            format!(
+                "{}: recorded (red) vs estimated (blue) features; Rayleigh curve α = {:.3} 1/s, β = {:.3e} s",
+                p.title, p.alpha, p.beta
+            ),
+            ("sans-serif", 17),
+        )
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d((f_min..f_max).log_scale(), (d_min..d_max).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_labels(8)
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| format!("{v}"))
+        .x_desc("frequency (Hz)")
+        .y_desc("damping (1/s)")
+        .draw()?;
+    // d = (α + βλ)/2 and f = √(λ − d²)/2π along λ.
+    let curve: Vec<(f64, f64)> = (0..400)
+        .filter_map(|i| {
+            let f = f_min * (f_max / f_min).powf(i as f64 / 399.0);
+            let lambda = (std::f64::consts::TAU * f).powi(2);
+            let mut l = lambda;
+            for _ in 0..30 {
+                let d = 0.5 * (p.alpha + p.beta * l);
+                l = lambda + d * d;
+            }
+            let d = 0.5 * (p.alpha + p.beta * l);
+            (d > d_min && d < d_max && d * d < l).then_some((f, d))
+        })
+        .collect();
+    chart.draw_series(LineSeries::new(curve, BLACK.stroke_width(2)))?;
+    let level = |m: &DampedMode| resound::signal::mode_level(m, resound::signal::LEVEL_WINDOW_S);
+    let strongest = p.reference.iter().map(level).fold(1e-300, f64::max);
+    let radius = |m: &DampedMode| {
+        let db = 20.0 * (level(m) / strongest).log10();
+        (3.0 + (db + 60.0).max(0.0) / 6.0) as i32
+    };
+    chart.draw_series(p.reference.iter().map(|m| {
+        Circle::new(
+            (m.freq_hz, m.damping_per_s),
+            radius(m),
+            RED.mix(0.6).filled(),
+        )
+    }))?;
+    chart.draw_series(p.estimated.iter().map(|m| {
+        Circle::new(
+            (m.freq_hz, m.damping_per_s),
+            radius(m),
+            BLUE.stroke_width(2),
+        )
+    }))?;
+    Ok(())
+}
+
+fn draw_loudness(
+    area: &Area<'_>,
+    image: &LoudnessImage,
+    vmax: f64,
+    title: &str,
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    let g = &image.grid;
+    let frames = g.frames.max(1);
+    let t_end = (frames * g.hop) as f64 / g.sample_rate_hz;
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 17))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0.0..t_end, 0.0..BANDS as f64)?;
+    chart
+        .configure_mesh()
+        .x_desc("time after onset (s)")
+        .y_desc("critical band (Bark)")
+        .disable_mesh()
+        .draw()?;
+    let plot = chart.plotting_area();
+    let (px_w, px_h) = plot.dim_in_pixel();
+    for py in 0..px_h {
+        let z = BANDS as f64 * (1.0 - (py as f64 + 0.5) / px_h as f64);
+        let b = (z as usize).min(BANDS - 1);
+        for px in 0..px_w {
+            let t = t_end * (px as f64 + 0.5) / px_w as f64;
+            let m = ((t * g.sample_rate_hz / g.hop as f64) as usize).min(frames - 1);
+            let v = image.data.get(m * BANDS + b).copied().unwrap_or(0.0);
+            plot.draw_pixel((t, z), &colour((v / vmax).sqrt()))?;
+        }
+    }
     Ok(())
 }

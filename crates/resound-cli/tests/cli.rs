@@ -490,11 +490,19 @@ fn estimate_recovers_a_known_material_and_fills_the_library() {
             "barsteel",
             "-o",
             "barsteel.json",
+            "--plot",
+            "barsteel.png",
             "--library",
             "lib.sqlite",
         ],
         d,
     ));
+    let png = std::fs::read(d.join("barsteel.png")).unwrap();
+    assert!(
+        png.starts_with(b"\x89PNG") && png.len() > 10_000,
+        "{} bytes",
+        png.len()
+    );
     let v: Value = serde_json::from_str(&out).unwrap();
     for (key, want) in [
         ("alpha", truth.alpha),

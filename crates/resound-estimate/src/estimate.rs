@@ -1,7 +1,7 @@
 //! Parameter estimation (Ren 2013 §5.3): multi-start Nelder–Mead on the hybrid metric
 //! `Π_psycho / |Π_MRP|` (eq. 27).
 //!
-//! Starting points: for every pair of the `dominant` strongest reference modes, the Rayleigh
+//! Starting points: for every pair of the `dominant` reference modes (by perceptual weight), the Rayleigh
 //! circle through them (eq. 8) gives (α, β); for every "no cheaper, louder" eigenvalue (no other
 //! has both a smaller λ⁰ and a larger a⁰), γ and σ put that mode on the frequency and amplitude
 //! of the most dominant reference mode. Each start is refined by Nelder–Mead (argmin) over
@@ -147,6 +147,16 @@ impl<'a> Objective<'a> {
         )
     }
 
+    /// The recording's loudness image.
+    pub fn reference_image(&self) -> &LoudnessImage {
+        &self.reference_image
+    }
+
+    /// The loudness image of the modes of `p` (closed form).
+    pub fn image(&self, p: &RayleighParams) -> LoudnessImage {
+        image_of_modes(&self.modes(p), &self.grid)
+    }
+
     /// `Π_psycho / |Π_MRP|` (eq. 27); infinite for invalid parameters or no match at all.
     pub fn hybrid(&self, p: &RayleighParams) -> f64 {
         if !p.is_valid() {
@@ -184,7 +194,7 @@ impl<'a> Objective<'a> {
 }
 
 /// Rough cost (ns, calibrated on this machine by `resound bench estimate`) of [`image_of_modes`]:
-/// a column set-up per bin and a complex update per cell.
+/// a column set-up per bin and a complex update per cell, while the mode stands above the floor.
 fn analytic_cost(modes: &[DampedMode], grid: &ImageGrid) -> f64 {
     let bin_hz = grid.sample_rate_hz / (2 * grid.window_len) as f64;
     let frames_per_s = grid.sample_rate_hz / grid.hop as f64;
@@ -192,9 +202,8 @@ fn analytic_cost(modes: &[DampedMode], grid: &ImageGrid) -> f64 {
         .iter()
         .map(|m| {
             let width = (16.0 + 8.0 * m.damping_per_s / TAU / bin_hz).min(600.0);
-            let frames =
-                (13.8 / m.damping_per_s.max(1e-9) * frames_per_s + 2.0).min(grid.frames as f64);
-            (2.0 * width + 1.0) * (300.0 + 3.0 * frames)
+            let frames = (grid.audible_s(m) * frames_per_s + 2.0).min(grid.frames as f64);
+            (2.0 * width + 1.0) * (60.0 + 3.0 * frames)
         })
         .sum::<f64>()
         + 2.0 * (grid.frames * (grid.window_len + 1)) as f64
@@ -255,8 +264,10 @@ pub fn starting_points(
     reference: &[DampedMode],
     dominant: usize,
 ) -> Vec<RayleighParams> {
+    // Dominance is perceptual: the feature weight (loudness × duration). Raw energy would
+    // crown the strike's click, a loud, near-Nyquist burst of a few milliseconds.
     let mut by_energy: Vec<&DampedMode> = reference.iter().collect();
-    let energy = |m: &DampedMode| m.amplitude * m.amplitude / m.damping_per_s.max(1e-9);
+    let energy = |m: &DampedMode| FeaturePoint::of(m).weight;
     by_energy.sort_by(|a, b| energy(b).total_cmp(&energy(a)));
     by_energy.truncate(dominant.max(2));
     let Some(top) = by_energy.first().copied() else {

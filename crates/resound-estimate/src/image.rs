@@ -7,7 +7,7 @@
 //!
 //! - [`image_of_signal`] is the straightforward route: STFT, sum |X|² over the band's bins.
 //! - [`image_of_modes`] is the fast route for the optimizer: a damped sinusoid's STFT cells are
-//!   known in closed form ([`resound_signal::stft::mode_basis_column`]) and a frame shift only
+//!   known in closed form ([`resound_signal::stft::ModeColumns`]) and a frame shift only
 //!   multiplies them by `z^hop`, so the image of any mode set needs no synthesis and no FFT: the
 //!   complex cells within a few dozen bins of each mode (while it lasts) are summed coherently,
 //!   then squared into bands. It equals the STFT route to about 1e-6 (test), window spread and
@@ -16,7 +16,7 @@
 use crate::psycho::{bark, phon_for_spl, sone_for_phon, FULL_SCALE_DB_SPL};
 use realfft::num_complex::Complex64;
 use resound_core::DampedMode;
-use resound_signal::stft::{hann, mode_basis_column, Spectrogram};
+use resound_signal::stft::{hann, ModeColumns, Spectrogram};
 
 /// Number of one-Bark bands.
 pub const BANDS: usize = 25;
@@ -34,10 +34,20 @@ pub struct ImageGrid {
     pub frames: usize,
     /// Centre frequency of each band (Hz).
     pub band_centre_hz: Vec<f64>,
-    /// Mean-square floor: quieter cells count as this level in both images, so leakage and
-    /// noise far below what matters do not dominate the compressive loudness scale.
-    pub floor_mean_square: f64,
+    /// Mean-square floor per band: quieter cells count as this level in both images, so
+    /// leakage, and the recording's steady noise, do not dominate the compressive loudness
+    /// scale. Empty: no floor.
+    pub floor_mean_square: Vec<f64>,
+    /// Loudness per band tabulated over dB above the floor (built by [`Self::with_floor_below`]).
+    table: std::sync::Arc<Vec<f64>>,
 }
+
+/// Step of the loudness table, dB. Loudness is smooth in dB (about `e^(0.07·dB)` far above
+/// threshold), so linear interpolation at this step errs by about 1e-5 relative.
+const TABLE_STEP_DB: f64 = 0.05;
+/// Range of the loudness table above the floor, dB.
+const TABLE_RANGE_DB: f64 = 160.0;
+const TABLE_LEN: usize = (TABLE_RANGE_DB / TABLE_STEP_DB) as usize + 1;
 
 impl ImageGrid {
     /// The grid for `samples` samples at `sample_rate_hz`; `None` if shorter than one frame.
@@ -57,15 +67,64 @@ impl ImageGrid {
             hop,
             frames,
             band_centre_hz,
-            floor_mean_square: 0.0,
+            floor_mean_square: Vec::new(),
+            table: Default::default(),
         })
     }
 
-    /// The same grid with the floor set `below_db` under the loudest cell of `reference`.
+    /// The same grid with the floor set `below_db` under the loudest cell of `reference`, or
+    /// per band at the recording's steady noise where that is higher: twice the band's 10th
+    /// percentile over frames (a strike has decayed by then in all but the longest-ringing
+    /// bands; a mode still ringing at the end keeps its decay above that level).
     pub fn with_floor_below(mut self, reference: &LoudnessImage, below_db: f64) -> Self {
         let max_ms = reference.mean_square.iter().copied().fold(0.0, f64::max);
-        self.floor_mean_square = max_ms * 10f64.powf(-below_db / 10.0);
+        let global = max_ms * 10f64.powf(-below_db / 10.0);
+        let frames = reference.mean_square.len() / BANDS;
+        self.floor_mean_square = (0..BANDS)
+            .map(|b| {
+                let mut v: Vec<f64> = (0..frames)
+                    .map(|m| reference.mean_square[m * BANDS + b])
+                    .collect();
+                let noise = if v.is_empty() {
+                    0.0
+                } else {
+                    let i = v.len() / 10;
+                    *v.select_nth_unstable_by(i, f64::total_cmp).1
+                };
+                global.max(2.0 * noise)
+            })
+            .collect();
+        self.table = Default::default();
+        if global > 0.0 {
+            let mut t = Vec::with_capacity(BANDS * TABLE_LEN);
+            for b in 0..BANDS {
+                for i in 0..TABLE_LEN {
+                    let ms =
+                        self.floor_mean_square[b] * 10f64.powf(i as f64 * TABLE_STEP_DB / 10.0);
+                    t.push(self.exact_loudness(b, ms));
+                }
+            }
+            self.table = std::sync::Arc::new(t);
+        }
         self
+    }
+
+    /// How long `mode` matters to an image on this grid: until it has decayed by 120 dB, or to
+    /// 40 dB under its band's floor, where it can no longer move a cell (a cell is never quieter
+    /// than the floor).
+    pub fn audible_s(&self, mode: &DampedMode) -> f64 {
+        let d = mode.damping_per_s.max(1e-9);
+        let mut decay_s = 13.8 / d;
+        let floor = self
+            .band_of(mode.freq_hz)
+            .and_then(|b| self.floor_mean_square.get(b))
+            .copied()
+            .unwrap_or(0.0);
+        if floor > 0.0 {
+            let ms0 = 0.5 * mode.amplitude * mode.amplitude;
+            decay_s = decay_s.min((ms0 / (1e-4 * floor)).ln().max(0.0) / (2.0 * d));
+        }
+        decay_s
     }
 
     fn band_of(&self, freq_hz: f64) -> Option<usize> {
@@ -74,7 +133,25 @@ impl ImageGrid {
     }
 
     fn loudness(&self, band: usize, mean_square: f64) -> f64 {
-        let mean_square = mean_square.max(self.floor_mean_square);
+        if !self.table.is_empty() {
+            let row = &self.table[band * TABLE_LEN..(band + 1) * TABLE_LEN];
+            let floor = self.floor_mean_square[band];
+            if mean_square <= floor {
+                return row[0];
+            }
+            let x = 10.0 * (mean_square / floor).log10() / TABLE_STEP_DB;
+            let i = x as usize;
+            if i + 1 < TABLE_LEN {
+                let t = x - i as f64;
+                return row[i] + t * (row[i + 1] - row[i]);
+            }
+        }
+        self.exact_loudness(band, mean_square)
+    }
+
+    fn exact_loudness(&self, band: usize, mean_square: f64) -> f64 {
+        let floor = self.floor_mean_square.get(band).copied().unwrap_or(0.0);
+        let mean_square = mean_square.max(floor);
         if !(mean_square > 0.0) {
             return 0.0;
         }
@@ -154,10 +231,32 @@ pub fn image_of_modes(modes: &[DampedMode], grid: &ImageGrid) -> LoudnessImage {
         data: Vec::new(),
     };
     // Complex cells of all modes together (coherent: overlapping modes interfere as they do in
-    // the recording's STFT), each mode over the bins and frames where it matters.
+    // the recording's STFT), each mode over the bins and frames where it matters. Bin-major, so
+    // a mode's run of frames is contiguous; `used[k]` is the number of frames bin k has seen.
     let bins = layout.bins;
-    let mut cells = vec![Complex64::new(0.0, 0.0); grid.frames * bins];
+    WORKSPACE.with_borrow_mut(|cells| {
+        if cells.len() < grid.frames * bins {
+            *cells = vec![Complex64::new(0.0, 0.0); grid.frames * bins];
+        }
+        image_of_modes_in(modes, grid, &layout, cells)
+    })
+}
+
+thread_local! {
+    /// Complex cells reused between evaluations on one thread; all zero between calls.
+    static WORKSPACE: std::cell::RefCell<Vec<Complex64>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+fn image_of_modes_in(
+    modes: &[DampedMode],
+    grid: &ImageGrid,
+    layout: &Spectrogram,
+    cells: &mut [Complex64],
+) -> LoudnessImage {
+    let bins = layout.bins;
+    let mut used = vec![0usize; bins];
     let bin_hz = layout.bin_width_hz();
+    let frames_per_s = grid.sample_rate_hz / grid.hop as f64;
     for m in modes {
         if !(m.freq_hz > 0.0 && m.freq_hz < 0.5 * grid.sample_rate_hz && m.amplitude > 0.0) {
             continue;
@@ -167,29 +266,34 @@ pub fn image_of_modes(modes: &[DampedMode], grid: &ImageGrid) -> LoudnessImage {
         let centre = m.freq_hz / bin_hz;
         let lo = (centre - width).max(1.0) as usize;
         let hi = ((centre + width) as usize).min(bins - 1);
-        // Frames until the mode has decayed by 120 dB.
-        let last = grid.frames.min(
-            (13.8 / m.damping_per_s.max(1e-9) * grid.sample_rate_hz / grid.hop as f64) as usize + 2,
-        );
+        let last = grid
+            .frames
+            .min((grid.audible_s(m) * frames_per_s) as usize + 2);
+        let columns = ModeColumns::new(layout, m.freq_hz, m.damping_per_s);
         for k in lo..=hi {
-            let [mut p, mut q, ps, qs] = mode_basis_column(&layout, m.freq_hz, m.damping_per_s, k);
-            for frame in 0..last {
-                cells[frame * bins + k] += a * p + a.conj() * q;
+            let [mut p, mut q, ps, qs] = columns.column(k);
+            let column = &mut cells[k * grid.frames..k * grid.frames + last];
+            for c in column {
+                *c += a * p + a.conj() * q;
                 p *= ps;
                 q *= qs;
             }
+            used[k] = used[k].max(last);
         }
     }
     let w2: f64 = hann(grid.window_len).iter().map(|v| v * v).sum();
     let scale = 2.0 / (layout.fft_len as f64 * w2);
-    let band: Vec<Option<usize>> = (0..bins).map(|k| grid.band_of(layout.bin_hz(k))).collect();
     let mut ms = vec![0.0; grid.frames * BANDS];
-    for frame in 0..grid.frames {
-        for (k, b) in band.iter().enumerate().skip(1) {
-            if let Some(b) = b {
-                ms[frame * BANDS + b] += scale * cells[frame * bins + k].norm_sqr();
+    for (k, &n) in used.iter().enumerate().skip(1) {
+        if let Some(b) = grid.band_of(layout.bin_hz(k)) {
+            for (frame, c) in cells[k * grid.frames..k * grid.frames + n]
+                .iter()
+                .enumerate()
+            {
+                ms[frame * BANDS + b] += scale * c.norm_sqr();
             }
         }
+        cells[k * grid.frames..k * grid.frames + n].fill(Complex64::new(0.0, 0.0));
     }
     finish(grid, ms)
 }

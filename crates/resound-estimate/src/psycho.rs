@@ -32,13 +32,28 @@ const T_F: [f64; 29] = [
 ];
 
 /// Table parameters (α_f, L_U, T_f) at `freq_hz`, interpolated linearly in log-frequency between
-/// the standard's frequencies and held constant outside 20 Hz–12.5 kHz (the standard's range).
+/// the standard's frequencies and held constant below 20 Hz. Above 12.5 kHz (the standard's
+/// range ends there) α_f and L_U are held and the threshold T_f follows the rise of Terhardt's
+/// threshold-in-quiet approximation from its 12.5 kHz value: hearing fades fast up there (about
+/// 65 dB SPL at 16 kHz, over 100 dB at 18 kHz), and a near-Nyquist click of a strike must not
+/// count as loud.
 fn params_at(freq_hz: f64) -> (f64, f64, f64) {
     let f = freq_hz.clamp(F_HZ[0], F_HZ[28]);
     let i = F_HZ.partition_point(|&x| x <= f).clamp(1, 28);
     let t = (f.ln() - F_HZ[i - 1].ln()) / (F_HZ[i].ln() - F_HZ[i - 1].ln());
     let lerp = |a: &[f64; 29]| a[i - 1] + t * (a[i] - a[i - 1]);
-    (lerp(&ALPHA_F), lerp(&L_U), lerp(&T_F))
+    let mut tf = lerp(&T_F);
+    if freq_hz > F_HZ[28] {
+        tf += terhardt_threshold_db(freq_hz) - terhardt_threshold_db(F_HZ[28]);
+    }
+    (lerp(&ALPHA_F), lerp(&L_U), tf)
+}
+
+/// Terhardt's (1979) threshold in quiet, dB SPL: `3.64 f^−0.8 − 6.5 e^(−0.6 (f − 3.3)²) +
+/// 1e−3 f⁴` with `f` in kHz.
+fn terhardt_threshold_db(freq_hz: f64) -> f64 {
+    let f = freq_hz / 1000.0;
+    3.64 * f.powf(-0.8) - 6.5 * (-0.6 * (f - 3.3).powi(2)).exp() + 1e-3 * f.powi(4)
 }
 
 /// Sound pressure level (dB SPL) of a pure tone at `freq_hz` that sounds as loud as
@@ -114,6 +129,29 @@ mod tests {
         let low = spl_for_phon(31.5, 80.0) - spl_for_phon(31.5, 40.0);
         let mid = spl_for_phon(1000.0, 80.0) - spl_for_phon(1000.0, 40.0);
         assert!(low < 0.75 * mid, "{low} vs {mid}");
+    }
+
+    #[test]
+    fn hearing_fades_above_the_standards_range() {
+        let threshold = |f: f64| spl_for_phon(f, 0.0);
+        // Continuous at 12.5 kHz, then rising steeply and monotonically.
+        assert!((threshold(12_500.0) - threshold(12_499.0)).abs() < 0.1);
+        let mut last = threshold(12_500.0);
+        for f in [
+            13_000.0, 14_000.0, 15_000.0, 16_000.0, 17_000.0, 18_000.0, 20_000.0,
+        ] {
+            let t = threshold(f);
+            assert!(t > last, "{f} Hz: {t} dB after {last} dB");
+            last = t;
+        }
+        assert!(
+            (50.0..80.0).contains(&threshold(16_000.0)),
+            "{}",
+            threshold(16_000.0)
+        );
+        // A −10 dBFS tone at 19 kHz is inaudible; at 3 kHz it is loud.
+        assert_eq!(phon_for_spl(19_000.0, FULL_SCALE_DB_SPL - 10.0), 0.0);
+        assert!(phon_for_spl(3_000.0, FULL_SCALE_DB_SPL - 10.0) > 80.0);
     }
 
     #[test]

@@ -12,9 +12,10 @@ use thiserror::Error;
 /// Settings of [`analyze`].
 #[derive(Clone, Debug)]
 pub struct AnalyzeParams {
-    /// Keep at most this many modes (the strongest).
+    /// Keep at most this many modes (the strongest by level).
     pub max_modes: usize,
-    /// Drop modes more than this many dB below the strongest (by amplitude).
+    /// Drop modes more than this many dB below the strongest, by level ([`crate::mode_level`]:
+    /// RMS amplitude over the first [`crate::LEVEL_WINDOW_S`]).
     pub min_db: f64,
     /// Zero-phase high-pass cut-off applied first (rooms add rumble below ~100 Hz).
     pub highpass_hz: Option<f64>,
@@ -231,7 +232,10 @@ pub fn analyze(
             if round + 1 == params.rounds.max(1) || seeds.len() >= params.max_modes {
                 break;
             }
-            let strongest = seeds.iter().map(|s| s.mode.amplitude).fold(0.0, f64::max);
+            let strongest = seeds
+                .iter()
+                .map(|s| crate::mode_level(&s.mode, crate::LEVEL_WINDOW_S))
+                .fold(0.0, f64::max);
             let more = ExtractParams {
                 max_modes: params.max_modes - seeds.len(),
                 ..extract.clone()
@@ -269,7 +273,8 @@ pub fn analyze(
         );
     }
     let mut modes: Vec<DampedMode> = seeds.iter().map(|s| s.mode).collect();
-    modes.sort_by(|a, b| b.amplitude.total_cmp(&a.amplitude));
+    let level = |m: &DampedMode| crate::mode_level(m, crate::LEVEL_WINDOW_S);
+    modes.sort_by(|a, b| level(b).total_cmp(&level(a)));
     modes.truncate(params.max_modes);
     modes.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
     Ok(Analysis {
@@ -310,8 +315,9 @@ fn prune(
             && m.amplitude > 0.0
             && m.amplitude.is_finite()
     });
-    let strongest = seeds.iter().map(|s| s.mode.amplitude).fold(0.0, f64::max);
-    let min_amp = strongest * 10f64.powf(-params.min_db / 20.0);
+    let level = |m: &DampedMode| crate::mode_level(m, crate::LEVEL_WINDOW_S);
+    let strongest = seeds.iter().map(|s| level(&s.mode)).fold(0.0, f64::max);
+    let min_level = strongest * 10f64.powf(-params.min_db / 20.0);
     let var = noise_rms * noise_rms;
     seeds.retain(|s| {
         let m = &s.mode;
@@ -320,6 +326,6 @@ fn prune(
         let energy =
             m.amplitude * m.amplitude * sample_rate_hz * (-(-2.0 * m.damping_per_s * t).exp_m1())
                 / (4.0 * m.damping_per_s);
-        m.amplitude >= min_amp && energy >= params.min_energy_snr * var
+        level(m) >= min_level && energy >= params.min_energy_snr * var
     });
 }

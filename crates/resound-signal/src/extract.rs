@@ -16,7 +16,7 @@
 //!
 //! The result seeds [`crate::refine`], which brings it to the noise limit.
 
-use crate::stft::{mode_basis_column, Spectrogram};
+use crate::stft::{ModeColumns, Spectrogram};
 use argmin::core::{CostFunction, Error as ArgminError, Executor};
 use argmin::solver::neldermead::NelderMead;
 use realfft::num_complex::Complex64;
@@ -33,7 +33,8 @@ pub struct ExtractParams {
     pub levels: usize,
     /// Stop after this many modes.
     pub max_modes: usize,
-    /// Ignore peaks weaker than this many dB below the strongest mode found.
+    /// Ignore modes whose level ([`crate::mode_level`]) is more than this many dB below the
+    /// strongest mode's.
     pub min_db: f64,
     /// Peaks must stand this many dB above the level's noise floor.
     pub noise_margin_db: f64,
@@ -116,14 +117,14 @@ fn noise_power(spec: &Spectrogram) -> f64 {
 
 /// Stage-1 extraction of damped sinusoids from the onset-aligned signal `x`.
 /// `known` are modes found before (already removed from `x`): peaks that look like their
-/// leftovers are skipped. `reference_amplitude` sets the level `min_db` is measured from
-/// (default: the strongest mode found here).
+/// leftovers are skipped. `reference_level` sets the level ([`crate::mode_level`]) `min_db` is
+/// measured from (default: the strongest mode found here).
 pub fn extract_modes(
     x: &[f64],
     sample_rate_hz: f64,
     params: &ExtractParams,
     known: &[DampedMode],
-    reference_amplitude: Option<f64>,
+    reference_level: Option<f64>,
 ) -> Vec<ExtractedMode> {
     let mut levels: Vec<Level> = spectrogram_levels(x, sample_rate_hz, params)
         .into_iter()
@@ -162,13 +163,15 @@ pub fn extract_modes(
     }
 
     let mut out: Vec<ExtractedMode> = Vec::new();
-    let mut strongest = reference_amplitude.unwrap_or(0.0);
+    let mut strongest = reference_level.unwrap_or(0.0);
     let min_ratio = 10f64.powf(-params.min_db / 20.0);
     // Peaks whose fit failed; a neighbour's subtraction may make them fit later.
     let mut rejected: Vec<Candidate> = Vec::new();
     let mut failures_in_a_row = 0usize;
     while let Some(c) = heap.pop() {
-        if out.len() >= params.max_modes || c.amplitude < strongest * min_ratio {
+        // A peak's amplitude is about the mean amplitude over its window, an upper bound of
+        // its level within a few dB: stop with 6 dB to spare.
+        if out.len() >= params.max_modes || c.amplitude < 0.5 * strongest * min_ratio {
             break;
         }
         let level = &levels[c.level];
@@ -247,7 +250,7 @@ pub fn extract_modes(
         let floor = 1e-4 * (level.noise_power.sqrt() * spec.amplitude_scale()).max(1e-12);
         let window_len = spec.window_len;
         for mode in group {
-            strongest = strongest.max(mode.amplitude);
+            strongest = strongest.max(crate::mode_level(&mode, crate::LEVEL_WINDOW_S));
             for l in levels.iter_mut() {
                 l.spec.subtract_mode(&mode, floor);
             }
@@ -273,7 +276,7 @@ pub fn extract_modes(
             });
         }
     }
-    out.retain(|e| e.mode.amplitude >= strongest * min_ratio);
+    out.retain(|e| crate::mode_level(&e.mode, crate::LEVEL_WINDOW_S) >= strongest * min_ratio);
     out.sort_by(|a, b| a.mode.freq_hz.total_cmp(&b.mode.freq_hz));
     out
 }
@@ -296,12 +299,13 @@ impl Patch<'_> {
         let mut xx = 0.0;
         let mut cols = vec![Complex64::new(0.0, 0.0); n];
         let mut state: Vec<[Complex64; 4]> = Vec::with_capacity(k_modes);
+        let columns: Vec<ModeColumns> = fd
+            .iter()
+            .map(|&(f, d)| ModeColumns::new(self.spec, f, d))
+            .collect();
         for k in self.bins.clone() {
             state.clear();
-            state.extend(
-                fd.iter()
-                    .map(|&(f, d)| mode_basis_column(self.spec, f, d, k)),
-            );
+            state.extend(columns.iter().map(|c| c.column(k)));
             for m in 0..self.frames {
                 for (j, st) in state.iter_mut().enumerate() {
                     cols[2 * j] = st[0] + st[1];
@@ -380,6 +384,10 @@ fn residual_at_level(
         .iter()
         .map(|m| Complex64::from_polar(m.amplitude, m.phase_rad))
         .collect();
+    let columns: Vec<ModeColumns> = modes
+        .iter()
+        .map(|m| ModeColumns::new(spec, m.freq_hz, m.damping_per_s))
+        .collect();
     let (mut rr, mut xx) = (0.0, 0.0);
     let mut cells = 0;
     for k in lo - 2..=hi + 2 {
@@ -387,10 +395,7 @@ fn residual_at_level(
             continue;
         }
         cells += frames;
-        let mut cols: Vec<[Complex64; 4]> = modes
-            .iter()
-            .map(|m| mode_basis_column(spec, m.freq_hz, m.damping_per_s, k))
-            .collect();
+        let mut cols: Vec<[Complex64; 4]> = columns.iter().map(|c| c.column(k)).collect();
         for m in 0..frames {
             let x = spec.at(m, k);
             let mut model = Complex64::new(0.0, 0.0);

@@ -39,4 +39,17 @@ pub fn plausible(freq_hz: f64, damping_per_s: f64, sample_rate_hz: f64) -> bool 
         && (MIN_DAMPING_PER_S..=MAX_DAMPING_PER_S).contains(&damping_per_s)
 }
 
+/// Time over which [`mode_level`] averages, s: about the integration time of loudness.
+pub const LEVEL_WINDOW_S: f64 = 0.25;
+
+/// A mode's level: its RMS amplitude over the first `window_s` seconds,
+/// `a · √((1 − e^(−2dT)) / (2dT))`, times √2 so that an undamped mode's level is its amplitude.
+/// Comparing modes by level (not by initial amplitude) keeps a quiet, long-ringing mode from
+/// being judged against a loud click that is over in a millisecond.
+pub fn mode_level(mode: &resound_core::DampedMode, window_s: f64) -> f64 {
+    let x = 2.0 * mode.damping_per_s.max(0.0) * window_s;
+    let share = if x < 1e-9 { 1.0 } else { -(-x).exp_m1() / x };
+    mode.amplitude.abs() * share.sqrt()
+}
+
 pub use analyze::{analyze, Analysis, AnalyzeError, AnalyzeParams};

@@ -124,10 +124,10 @@ impl Spectrogram {
         let last = self
             .frames
             .min((t_end * self.sample_rate_hz / self.hop as f64).ceil() as usize + 1);
+        let columns = ModeColumns::new(self, mode.freq_hz, mode.damping_per_s);
         for k in (centre - width).max(0)..=(centre + width).min(self.bins as isize - 1) {
             let k = k as usize;
-            let [mut p, mut q, ps, qs] =
-                mode_basis_column(self, mode.freq_hz, mode.damping_per_s, k);
+            let [mut p, mut q, ps, qs] = columns.column(k);
             for m in 0..last {
                 self.data[m * self.bins + k] -= p_amp * p + p_conj * q;
                 p *= ps;
@@ -161,6 +161,115 @@ pub fn mode_basis_column(
     let p_step = Complex64::new(sigma * h, omega * h).exp();
     let q_step = Complex64::new(sigma * h, -omega * h).exp();
     [p0, q0, p_step, q_step]
+}
+
+/// [`mode_basis_column`] for many bins of one mode, with two `sin_cos` per bin instead of
+/// about forty transcendental calls.
+///
+/// With the layout's zero padding (`fft_len = 2W`), `ω_k W = πk`, so the numerator
+/// `e^{ℓW} − 1` of the three geometric sums of the Hann window is the same for all three and
+/// changes with `k` only by a quarter turn of its half angle; the denominators `e^{ℓ} − 1`,
+/// `e^{ℓ ± jβ} − 1` (β = 2π/W) come from one half-angle `sin_cos` by angle addition. Every
+/// `e^x − 1` is formed as `expm1(σ)·cos θ − 2 sin²(θ/2) + j e^σ sin θ`, which keeps full
+/// relative precision when both the damping and the offset from the bin are tiny.
+#[derive(Clone, Debug)]
+pub struct ModeColumns {
+    /// Set when the layout is not zero-padded to 2W: columns then come from [`mode_basis`].
+    direct: Option<(Layout, f64, f64)>,
+    window: f64,
+    sigma: f64,
+    omega: f64,
+    bin_step: f64,
+    em1_sigma: f64,
+    e_sigma: f64,
+    em1_sigma_w: f64,
+    e_sigma_w: f64,
+    half_w: (f64, f64),
+    half_beta: (f64, f64),
+    p_step: Complex64,
+    q_step: Complex64,
+}
+
+impl ModeColumns {
+    /// Prepares the columns of the mode `(freq_hz, damping_per_s)` in `spec`'s layout (any
+    /// layout; the fast path needs `fft_len = 2W`, which [`Spectrogram::compute`] uses).
+    pub fn new(spec: &Spectrogram, freq_hz: f64, damping_per_s: f64) -> Self {
+        let direct = (spec.fft_len != 2 * spec.window_len)
+            .then(|| (Layout::of(spec), freq_hz, damping_per_s));
+        let fs = spec.sample_rate_hz;
+        let w = spec.window_len as f64;
+        let sigma = -damping_per_s / fs;
+        let omega = TAU * freq_hz / fs;
+        let h = spec.hop as f64;
+        Self {
+            direct,
+            window: w,
+            sigma,
+            omega,
+            bin_step: TAU / spec.fft_len as f64,
+            em1_sigma: sigma.exp_m1(),
+            e_sigma: sigma.exp(),
+            em1_sigma_w: (sigma * w).exp_m1(),
+            e_sigma_w: (sigma * w).exp(),
+            half_w: (0.5 * omega * w).sin_cos(),
+            half_beta: (0.5 * TAU / w).sin_cos(),
+            p_step: Complex64::new(sigma * h, omega * h).exp(),
+            q_step: Complex64::new(sigma * h, -omega * h).exp(),
+        }
+    }
+
+    /// `e^{σ(+W)} e^{jθ} − 1` from `(sin θ/2, cos θ/2)`.
+    #[inline]
+    fn em1(em1: f64, e: f64, (s, c): (f64, f64)) -> Complex64 {
+        let cos = 1.0 - 2.0 * s * s;
+        Complex64::new(em1 * cos - 2.0 * s * s, e * 2.0 * s * c)
+    }
+
+    /// `Σ_τ hann[τ] e^{ℓτ}` for `ℓ = σ + jθ`, with the numerator's half angle `half_n`.
+    #[inline]
+    fn hann_sum(&self, theta: f64, half_n: (f64, f64)) -> Complex64 {
+        let n = Self::em1(self.em1_sigma_w, self.e_sigma_w, half_n);
+        let (s, c) = (0.5 * theta).sin_cos();
+        let (sb, cb) = self.half_beta;
+        let g = |half: (f64, f64), angle: f64| {
+            let d = Self::em1(self.em1_sigma, self.e_sigma, half);
+            if d.norm() > 1e-7 {
+                n / d
+            } else {
+                // ℓ' ≈ 0 (mod 2πj): second-order series of the geometric sum.
+                let l = Complex64::new(self.sigma, angle - TAU * (angle / TAU).round());
+                Complex64::new(self.window, 0.0) + l * (self.window * (self.window - 1.0) / 2.0)
+            }
+        };
+        let beta = TAU / self.window;
+        g((s, c), theta) * 0.5
+            - (g((s * cb + c * sb, c * cb - s * sb), theta + beta)
+                + g((s * cb - c * sb, c * cb + s * sb), theta - beta))
+                * 0.25
+    }
+
+    /// `[P_0, Q_0, p_step, q_step]` of bin `k`, as [`mode_basis_column`] returns them.
+    #[inline]
+    pub fn column(&self, k: usize) -> [Complex64; 4] {
+        if let Some((layout, f, d)) = &self.direct {
+            let (p, q) = layout.mode_basis(*f, *d, 0, k);
+            return [p, q, self.p_step, self.q_step];
+        }
+        let wk = self.bin_step * k as f64;
+        // Half angle of the numerator, (±ωW − πk)/2: the mode's half angle turned by k
+        // quarter turns.
+        let (sw, cw) = self.half_w;
+        let quarter = |s: f64, c: f64| match k % 4 {
+            0 => (s, c),
+            1 => (-c, s),
+            2 => (-s, -c),
+            _ => (c, -s),
+        };
+        let pos = self.hann_sum(self.omega - wk, quarter(sw, cw));
+        let neg = self.hann_sum(-self.omega - wk, quarter(-sw, cw));
+        let half_j = Complex64::new(0.0, 0.5);
+        [-(half_j * pos), half_j * neg, self.p_step, self.q_step]
+    }
 }
 
 /// `A` and `conj(A)` of a mode, where its spectrogram is `A·P + conj(A)·Q` with `(P, Q)` from
@@ -208,24 +317,94 @@ pub fn mode_basis(
     m: usize,
     k: usize,
 ) -> (Complex64, Complex64) {
-    let fs = spec.sample_rate_hz;
-    let s = (m * spec.hop) as f64;
-    let wk = TAU * k as f64 / spec.fft_len as f64;
-    let sigma = -damping_per_s / fs;
-    let omega = TAU * freq_hz / fs;
-    let half_j = Complex64::new(0.0, 0.5); // 1 / (2j) = −j/2
-    let pos_start = Complex64::new(sigma * s, omega * s).exp();
-    let neg_start = Complex64::new(sigma * s, -omega * s).exp();
-    let pos = hann_sum(Complex64::new(sigma, omega - wk), spec.window_len);
-    let neg = hann_sum(Complex64::new(sigma, -omega - wk), spec.window_len);
-    // 1/(2j) = −j/2.
-    (-(half_j * pos_start * pos), half_j * neg_start * neg)
+    Layout::of(spec).mode_basis(freq_hz, damping_per_s, m, k)
+}
+
+/// The sizes of a spectrogram that its closed form needs.
+#[derive(Clone, Copy, Debug)]
+struct Layout {
+    sample_rate_hz: f64,
+    hop: usize,
+    fft_len: usize,
+    window_len: usize,
+}
+
+impl Layout {
+    fn of(spec: &Spectrogram) -> Self {
+        Self {
+            sample_rate_hz: spec.sample_rate_hz,
+            hop: spec.hop,
+            fft_len: spec.fft_len,
+            window_len: spec.window_len,
+        }
+    }
+
+    fn mode_basis(
+        &self,
+        freq_hz: f64,
+        damping_per_s: f64,
+        m: usize,
+        k: usize,
+    ) -> (Complex64, Complex64) {
+        let fs = self.sample_rate_hz;
+        let s = (m * self.hop) as f64;
+        let wk = TAU * k as f64 / self.fft_len as f64;
+        let sigma = -damping_per_s / fs;
+        let omega = TAU * freq_hz / fs;
+        let half_j = Complex64::new(0.0, 0.5); // 1 / (2j) = −j/2
+        let pos_start = Complex64::new(sigma * s, omega * s).exp();
+        let neg_start = Complex64::new(sigma * s, -omega * s).exp();
+        let pos = hann_sum(Complex64::new(sigma, omega - wk), self.window_len);
+        let neg = hann_sum(Complex64::new(sigma, -omega - wk), self.window_len);
+        // 1/(2j) = −j/2.
+        (-(half_j * pos_start * pos), half_j * neg_start * neg)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use resound_core::{damped::synthesize, DampedMode};
+
+    #[test]
+    fn fast_columns_match_the_direct_closed_form() {
+        let x = vec![0.0; 48000];
+        let spec = Spectrogram::compute(&x, 48000.0, 1024).unwrap();
+        let bin = spec.bin_width_hz();
+        let beta_hz = 2.0 * bin;
+        for f in [
+            1000.0,
+            37.0 * bin,
+            37.0 * bin + beta_hz,
+            37.0 * bin - 1e-9,
+            23_990.0,
+            24_000.0 - bin,
+            15.2,
+        ] {
+            for d in [1e-3, 1.5, 50.0, 2900.0] {
+                let fast = ModeColumns::new(&spec, f, d);
+                let cols: Vec<[Complex64; 4]> = (0..spec.bins)
+                    .map(|k| mode_basis_column(&spec, f, d, k))
+                    .collect();
+                let peak = cols
+                    .iter()
+                    .map(|c| c[0].norm().max(c[1].norm()))
+                    .fold(0.0, f64::max);
+                for (k, want) in cols.iter().enumerate() {
+                    let got = fast.column(k);
+                    for i in 0..4 {
+                        let scale = if i < 2 { peak } else { 1.0 };
+                        assert!(
+                            (got[i] - want[i]).norm() <= 1e-9 * scale,
+                            "f {f} d {d} k {k} term {i}: {} vs {}",
+                            got[i],
+                            want[i]
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn closed_form_matches_fft() {
