@@ -32,10 +32,82 @@ pub struct SoundMaterial {
     pub gamma: f64,
     /// Amplitude scale σ.
     pub sigma: f64,
-    /// Damping model; "rayleigh" (C = αM + βK) for now.
+    /// Damping model: "rayleigh" (C = αM + βK, from `alpha` and `beta`) or "caughey"
+    /// (C = M Σ_j c_j (M⁻¹K)^j, from `caughey`).
     pub damping_model: String,
+    /// Caughey series coefficients c_0, c_1, … (units 1/s, s, s³, …) when `damping_model` is
+    /// "caughey": mode i decays at d_i = ½ Σ_j c_j ω_i^(2j) (dissertation eq. 1.12).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub caughey: Vec<f64>,
+    /// Per-mode damping overrides (mode index of the object it was measured on → d in 1/s).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub mode_damping: Vec<ModeDamping>,
     /// How it was obtained; `None` for presets.
     pub provenance: Option<Provenance>,
+    /// The residual of Ren §6, when computed from the recording.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual: Option<ResidualSpectrogram>,
+}
+
+/// One per-mode damping override.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModeDamping {
+    /// Mode index (ascending frequency, elastic modes only).
+    pub mode: usize,
+    /// Decay rate d, 1/s.
+    pub damping_per_s: f64,
+}
+
+/// The residual power spectrogram of Ren 2013 §6.1 (recording minus what the modes represent)
+/// with the modes it was computed against (needed to transfer it, §6.2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResidualSpectrogram {
+    /// Sample rate of the recording, Hz.
+    pub sample_rate_hz: f64,
+    /// Hann window length, samples.
+    pub window_len: usize,
+    /// Hop, samples.
+    pub hop: usize,
+    /// Frames.
+    pub frames: usize,
+    /// Bins per frame (window_len/2 + 1).
+    pub bins: usize,
+    /// Power per cell in dB (frame-major), rounded to 0.01 dB; −200 for empty cells.
+    pub power_db: Vec<f32>,
+    /// The estimated modes of the recorded object at the recorded hit (the source modes).
+    pub source_modes: Vec<DampedMode>,
+}
+
+/// How modes lose energy: d_i as a function of the undamped ω_i.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Damping {
+    /// C = αM + βK: d = (α + βω²)/2 (dissertation eq. 1.11).
+    Rayleigh {
+        /// Mass-proportional α, 1/s.
+        alpha: f64,
+        /// Stiffness-proportional β, s.
+        beta: f64,
+    },
+    /// Caughey series: d = ½ Σ_j c_j ω^(2j) (eq. 1.12).
+    Caughey(Vec<f64>),
+}
+
+impl Damping {
+    /// Decay rate (1/s) of a mode with undamped eigenvalue λ = ω² (rad²/s²).
+    pub fn damping_per_s(&self, lambda: f64) -> f64 {
+        match self {
+            Damping::Rayleigh { alpha, beta } => 0.5 * (alpha + beta * lambda),
+            Damping::Caughey(c) => {
+                let mut power = 1.0;
+                let mut sum = 0.0;
+                for cj in c {
+                    sum += cj * power;
+                    power *= lambda;
+                }
+                0.5 * sum
+            }
+        }
+    }
 }
 
 impl SoundMaterial {
@@ -48,8 +120,65 @@ impl SoundMaterial {
             gamma,
             sigma,
             damping_model: "rayleigh".to_string(),
+            caughey: Vec::new(),
+            mode_damping: Vec::new(),
             provenance: None,
+            residual: None,
         }
+    }
+
+    /// The damping model this material describes.
+    pub fn damping(&self) -> Damping {
+        if self.damping_model == "caughey" {
+            Damping::Caughey(self.caughey.clone())
+        } else {
+            Damping::Rayleigh {
+                alpha: self.alpha,
+                beta: self.beta,
+            }
+        }
+    }
+
+    /// The damped sinusoids of an object made of this material: `eigenvalues0` (rad²/s²) and
+    /// unit-impulse amplitudes `gains0` of a modal model computed with `gamma0 = E₀/ρ₀`.
+    /// λ = (γ/γ₀)λ⁰, d from the damping model (then per-mode overrides), f = √(λ − d²)/2π,
+    /// a = σ·a⁰ (Ren eqs. 6–11). Over-damped modes and modes at or above `max_freq_hz` are left
+    /// out; a negative a⁰ becomes phase π. Sorted by frequency.
+    pub fn modes(
+        &self,
+        eigenvalues0: &[f64],
+        gains0: &[f64],
+        gamma0: f64,
+        max_freq_hz: f64,
+    ) -> Vec<DampedMode> {
+        let damping = self.damping();
+        let scale = self.gamma / gamma0;
+        let mut out: Vec<DampedMode> = eigenvalues0
+            .iter()
+            .zip(gains0)
+            .enumerate()
+            .filter_map(|(i, (&l0, &a0))| {
+                let lambda = scale * l0;
+                let d = self
+                    .mode_damping
+                    .iter()
+                    .find(|o| o.mode == i)
+                    .map_or_else(|| damping.damping_per_s(lambda), |o| o.damping_per_s);
+                let w2 = lambda - d * d;
+                if !(w2 > 0.0) {
+                    return None;
+                }
+                let f = w2.sqrt() / std::f64::consts::TAU;
+                (f < max_freq_hz).then(|| DampedMode {
+                    freq_hz: f,
+                    damping_per_s: d,
+                    amplitude: self.sigma * a0.abs(),
+                    phase_rad: if a0 < 0.0 { std::f64::consts::PI } else { 0.0 },
+                })
+            })
+            .collect();
+        out.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+        out
     }
 
     /// Checks the values: finite, α, β ≥ 0, γ, σ > 0, a known damping model, a usable name.
@@ -63,10 +192,30 @@ impl SoundMaterial {
                 self.name
             ));
         }
-        if self.damping_model != "rayleigh" {
+        match self.damping_model.as_str() {
+            "rayleigh" => {}
+            "caughey" => {
+                if self.caughey.is_empty() || self.caughey.iter().any(|c| !c.is_finite()) {
+                    return Err(format!(
+                        "a Caughey material needs finite coefficients, got {:?}",
+                        self.caughey
+                    ));
+                }
+            }
+            other => {
+                return Err(format!(
+                    "unknown damping model {other:?} (known: rayleigh, caughey)"
+                ))
+            }
+        }
+        if let Some(o) = self
+            .mode_damping
+            .iter()
+            .find(|o| !(o.damping_per_s.is_finite() && o.damping_per_s >= 0.0))
+        {
             return Err(format!(
-                "unknown damping model {:?} (known: rayleigh)",
-                self.damping_model
+                "mode {} damping override {} must be finite and ≥ 0",
+                o.mode, o.damping_per_s
             ));
         }
         let ok = |v: f64| v.is_finite();
@@ -103,6 +252,53 @@ impl SoundMaterial {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::{PI, TAU};
+
+    #[test]
+    fn caughey_with_one_term_is_rayleighs_mass_part_and_two_terms_are_rayleigh() {
+        for lambda in [1.0, 4e6, 3.9e9] {
+            let c1 = Damping::Caughey(vec![7.5]).damping_per_s(lambda);
+            let r = Damping::Rayleigh {
+                alpha: 7.5,
+                beta: 0.0,
+            }
+            .damping_per_s(lambda);
+            assert_eq!(c1, r);
+            let c2 = Damping::Caughey(vec![7.5, 2e-7]).damping_per_s(lambda);
+            let r2 = Damping::Rayleigh {
+                alpha: 7.5,
+                beta: 2e-7,
+            }
+            .damping_per_s(lambda);
+            assert!((c2 / r2 - 1.0).abs() < 1e-15);
+        }
+        // A third term adds c_2 ω⁴ / 2.
+        let c3 = Damping::Caughey(vec![0.0, 0.0, 1e-15]).damping_per_s(1e8);
+        assert!((c3 - 0.5 * 1e-15 * 1e16).abs() < 1e-9);
+    }
+
+    #[test]
+    fn modes_follow_the_damping_model_and_overrides() {
+        let mut m = SoundMaterial::rayleigh("x", 2.0, 1e-7, 2.0e7, 3.0);
+        let l0 = [(TAU * 1000.0f64).powi(2), (TAU * 3000.0f64).powi(2)];
+        let a = m.modes(&l0, &[1e-3, -2e-3], 1.0e7, 1e5);
+        assert_eq!(a.len(), 2);
+        let lambda = 2.0 * l0[0];
+        assert!((a[0].damping_per_s - 0.5 * (2.0 + 1e-7 * lambda)).abs() < 1e-9);
+        assert!((a[0].freq_hz - (lambda - a[0].damping_per_s.powi(2)).sqrt() / TAU).abs() < 1e-9);
+        assert!((a[1].amplitude - 6e-3).abs() < 1e-15 && a[1].phase_rad == PI);
+        m.mode_damping.push(ModeDamping {
+            mode: 1,
+            damping_per_s: 42.0,
+        });
+        assert_eq!(m.modes(&l0, &[1e-3, -2e-3], 1.0e7, 1e5)[1].damping_per_s, 42.0);
+        m.damping_model = "caughey".into();
+        assert!(m.validate().is_err());
+        m.caughey = vec![2.0, 1e-7];
+        assert!(m.validate().is_ok());
+        let c = m.modes(&l0, &[1e-3, -2e-3], 1.0e7, 1e5);
+        assert!((c[0].damping_per_s - a[0].damping_per_s).abs() < 1e-12);
+    }
 
     #[test]
     fn table_1_is_valid_and_bad_values_are_named() {

@@ -1,0 +1,46 @@
+//! Resound sound out: the resonator engine, contact forces and Ren's residual (§6).
+//!
+//! Numeric only, no file I/O. Audio is `f32` at the engine's sample rate; analysis-side inputs
+//! (modes, materials) are `f64`.
+//!
+//! - [`bank`]: one object's modes as an f32 SIMD resonator bank, exact (impulse-invariant) and
+//!   drift-corrected.
+//! - [`engine`]: voices, force scheduling, culling and voice stealing; allocation-free
+//!   `process`.
+//! - [`excitation`]: impact force pulses (spring, Hertz, impulse).
+//! - [`render`]: offline rendering of one strike.
+//! - [`residual`]: the residual's computation, transfer and Griffin–Lim reconstruction.
+#![warn(missing_docs)]
+
+pub mod bank;
+pub mod benchmark;
+pub mod engine;
+pub mod excitation;
+pub mod render;
+
+
+pub use bank::{BankMode, ModalBank};
+pub use engine::{Engine, EngineParams, VoiceId};
+pub use excitation::{ContactModel, Elastic, Impact};
+
+/// Largest block [`Engine::process`] renders at once, samples.
+pub const MAX_BLOCK: usize = 1024;
+
+/// Why synthesis cannot run.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SynthError {
+    /// Unusable sample rate.
+    #[error("sample rate {0} Hz is out of range (1 kHz – 768 kHz)")]
+    SampleRate(f64),
+    /// More modes than the bank was prepared for.
+    #[error("{wanted} modes do not fit a bank prepared for {capacity}")]
+    Capacity {
+        /// Modes asked for.
+        wanted: usize,
+        /// Modes prepared.
+        capacity: usize,
+    },
+    /// A parameter out of range.
+    #[error("{0}")]
+    Parameter(String),
+}

@@ -1,0 +1,69 @@
+//! Offline rendering: one strike of an object, and output-level safety.
+
+use crate::bank::{BankMode, ModalBank};
+use crate::SynthError;
+use resound_core::DampedMode;
+
+/// Bank modes from damped sinusoids given per unit impulse (`amplitude` with `phase_rad` 0 or
+/// π as the sign, as [`resound_core::SoundMaterial::modes`] returns them). Other phases are
+/// projected onto the sine (a struck object at rest starts each mode as a sine).
+pub fn bank_modes(modes: &[DampedMode]) -> Vec<BankMode> {
+    modes
+        .iter()
+        .map(|m| BankMode {
+            freq_hz: m.freq_hz,
+            damping_per_s: m.damping_per_s,
+            gain: m.amplitude * m.phase_rad.cos(),
+        })
+        .collect()
+}
+
+/// Renders `modes` struck by `force` (N per sample) for `samples` samples.
+pub fn render_strike(
+    modes: &[BankMode],
+    force: &[f32],
+    sample_rate_hz: f64,
+    samples: usize,
+) -> Result<Vec<f32>, SynthError> {
+    let mut bank = ModalBank::new(sample_rate_hz, modes, 0.0)?;
+    let mut out = vec![0.0f32; samples];
+    let mut x = vec![0.0f32; samples];
+    let n = force.len().min(samples);
+    x[..n].copy_from_slice(&force[..n]);
+    bank.process(&x, &mut out);
+    Ok(out)
+}
+
+/// What [`normalize`] did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LevelReport {
+    /// Peak before, full scale = 1.
+    pub peak_before: f32,
+    /// Gain applied, dB (0 if none).
+    pub gain_db: f32,
+}
+
+/// Keeps `x` from clipping: if its peak exceeds `ceiling` (full scale = 1), scales it so the
+/// peak sits at `ceiling`. Never clips silently: the caller reports the gain. NaN or infinite
+/// samples are an error.
+pub fn normalize(x: &mut [f32], ceiling: f32) -> Result<LevelReport, SynthError> {
+    if x.iter().any(|v| !v.is_finite()) {
+        return Err(SynthError::Parameter(
+            "the rendered signal is not finite (absurd parameters?)".into(),
+        ));
+    }
+    let peak = x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    if peak > ceiling {
+        let g = ceiling / peak;
+        x.iter_mut().for_each(|v| *v *= g);
+        Ok(LevelReport {
+            peak_before: peak,
+            gain_db: 20.0 * g.log10(),
+        })
+    } else {
+        Ok(LevelReport {
+            peak_before: peak,
+            gain_db: 0.0,
+        })
+    }
+}

@@ -1,0 +1,180 @@
+//! The resonator bank and the engine against analytic references.
+#![allow(clippy::unwrap_used)]
+
+use assert_no_alloc::assert_no_alloc;
+use resound_synth::bank::{reference_response, BankMode, ModalBank};
+use resound_synth::{Engine, EngineParams};
+
+// The allocation check is active in debug builds (as `cargo test` builds); release builds of
+// assert_no_alloc pass through.
+#[cfg(debug_assertions)]
+#[global_allocator]
+static A: assert_no_alloc::AllocDisabler = assert_no_alloc::AllocDisabler;
+
+fn modes() -> Vec<BankMode> {
+    let mut m = vec![
+        BankMode { freq_hz: 30.0, damping_per_s: 0.4, gain: 0.8 },
+        BankMode { freq_hz: 31.7, damping_per_s: 2.0, gain: -0.5 },
+        BankMode { freq_hz: 440.0, damping_per_s: 3.0, gain: 0.3 },
+        BankMode { freq_hz: 12_345.0, damping_per_s: 40.0, gain: 0.2 },
+        BankMode { freq_hz: 47_000.0, damping_per_s: 900.0, gain: 0.1 },
+    ];
+    // Enough for two chunks.
+    for k in 0..20 {
+        m.push(BankMode {
+            freq_hz: 100.0 + 997.0 * k as f64,
+            damping_per_s: 1.0 + 7.0 * k as f64,
+            gain: 0.05 / (1.0 + k as f64),
+        });
+    }
+    m
+}
+
+/// Error bound: 2e-4 of the peak over 5 s at 96 kHz, 30 Hz modes included (the f32 state's
+/// rounding walk; the pole's drift is corrected, see the bank docs).
+#[test]
+fn bank_matches_the_f64_sum_of_damped_sinusoids_over_five_seconds_at_96_khz() {
+    let fs = 96_000.0;
+    let n = 5 * 96_000;
+    let m = modes();
+    // An impulse of 1 N·s at sample 0 (force 1/T for one sample).
+    let mut force = vec![0.0f32; n];
+    force[0] = fs as f32;
+    let mut bank = ModalBank::new(fs, &m, 0.0).unwrap();
+    let mut out = vec![0.0f32; n];
+    bank.process(&force, &mut out);
+    // Closed form: Σ g e^{−dt} sin(ωt).
+    let want: Vec<f64> = (0..n)
+        .map(|k| {
+            let t = k as f64 / fs;
+            m.iter()
+                .map(|md| md.gain * (-md.damping_per_s * t).exp() * (std::f64::consts::TAU * md.freq_hz * t).sin())
+                .sum()
+        })
+        .collect();
+    let peak = want.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let err = out
+        .iter()
+        .zip(&want)
+        .map(|(&a, &b)| (f64::from(a) - b).abs())
+        .fold(0.0, f64::max);
+    assert!(err <= 2e-4 * peak, "max error {err:e} vs peak {peak}");
+    // And in the last second, where only the 30 Hz modes ring, relative to what is left.
+    let tail = &want[4 * 96_000..];
+    let tail_peak = tail.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let tail_err = out[4 * 96_000..]
+        .iter()
+        .zip(tail)
+        .map(|(&a, &b)| (f64::from(a) - b).abs())
+        .fold(0.0, f64::max);
+    assert!(tail_err <= 5e-4 * tail_peak, "tail error {tail_err:e} vs {tail_peak}");
+}
+
+#[test]
+fn a_shaped_force_gives_the_exact_sampled_convolution() {
+    let fs = 48_000.0;
+    let m = modes();
+    let force: Vec<f64> = (0..40).map(|k| (std::f64::consts::PI * k as f64 / 40.0).sin() * 30.0).collect();
+    let want = reference_response(&m, fs, &force, 4800);
+    let f32s: Vec<f32> = force.iter().map(|&v| v as f32).collect();
+    let got = resound_synth::render::render_strike(&m, &f32s, fs, 4800).unwrap();
+    let peak = want.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let err = got
+        .iter()
+        .zip(&want)
+        .map(|(&a, &b)| (f64::from(a) - b).abs())
+        .fold(0.0, f64::max);
+    // f32 sums of 25 modes: a few ulps of the peak.
+    assert!(err <= 5e-5 * peak, "max error {err:e} vs peak {peak:e}");
+}
+
+#[test]
+fn output_does_not_depend_on_the_block_size() {
+    let fs = 48_000.0;
+    let m = modes();
+    let n = 20_000;
+    let mut force = vec![0.0f32; n];
+    force[0] = 5000.0;
+    force[7777] = -3000.0;
+    let render = |block: usize| {
+        let mut bank = ModalBank::new(fs, &m, 1e-7).unwrap();
+        let mut out = vec![0.0f32; n];
+        for (x, o) in force.chunks(block).zip(out.chunks_mut(block)) {
+            bank.process(x, o);
+        }
+        out
+    };
+    let a = render(n);
+    for block in [1, 7, 64, 333, 1024, 4096] {
+        assert_eq!(render(block), a, "block {block}");
+    }
+    // The SIMD path and the portable path agree bit for bit.
+    let mut bank = ModalBank::new(fs, &m, 1e-7).unwrap();
+    bank.set_scalar_only(true);
+    let mut out = vec![0.0f32; n];
+    bank.process(&force, &mut out);
+    assert_eq!(out, a);
+}
+
+#[test]
+fn quiet_modes_are_culled_and_the_voice_ends() {
+    let fs = 48_000.0;
+    let m = modes();
+    let mut bank = ModalBank::new(fs, &m, 1e-6).unwrap();
+    let mut force = vec![0.0f32; 48_000];
+    force[0] = 48_000.0;
+    let mut out = vec![0.0f32; 48_000];
+    bank.process(&force, &mut out);
+    assert!(!bank.is_silent());
+    // After a second the heavily damped chunk is gone, the 30 Hz one still rings.
+    assert!(bank.active_modes() < bank.modes().div_ceil(16) * 16, "{}", bank.active_modes());
+    let mut quiet = vec![0.0f32; 48_000];
+    let mut out = vec![0.0f32; 48_000];
+    for _ in 0..40 {
+        bank.process(&quiet, &mut out);
+    }
+    assert!(bank.is_silent());
+    quiet[10] = 1.0;
+    bank.process(&quiet, &mut out);
+    assert!(!bank.is_silent());
+}
+
+#[test]
+fn engine_process_does_not_allocate_and_steals_the_quietest_voice() {
+    let fs = 48_000.0;
+    let mut engine = Engine::new(EngineParams {
+        sample_rate_hz: fs,
+        voices: 2,
+        modes_per_voice: 64,
+        force_capacity: 4800,
+        cull_level: 1e-6,
+    })
+    .unwrap();
+    let m = modes();
+    let pulse: Vec<f32> = (0..20).map(|k| 100.0 * (std::f32::consts::PI * k as f32 / 20.0).sin()).collect();
+    let mut out = vec![0.0f32; 512];
+    let (loud, quiet) = assert_no_alloc(|| {
+        let loud = engine.start(&m, 1.0).unwrap();
+        assert!(engine.excite(loud, &pulse, 3));
+        let quiet = engine.start(&m, 1.0).unwrap();
+        let soft: Vec<f32> = Vec::new();
+        assert!(engine.excite(quiet, &soft, 0));
+        (loud, quiet)
+    });
+    let mut small = [0.0f32; 20];
+    for (s, p) in small.iter_mut().zip(&pulse) {
+        *s = p * 1e-3;
+    }
+    assert_no_alloc(|| {
+        assert!(engine.excite(quiet, &small, 0));
+        engine.process(&mut out);
+        engine.process(&mut out);
+    });
+    assert!(out.iter().any(|&v| v != 0.0));
+    // Both voices busy: a third steals the quieter one.
+    let third = assert_no_alloc(|| engine.start(&m, 1.0).unwrap());
+    assert!(engine.is_alive(loud) && !engine.is_alive(quiet) && engine.is_alive(third));
+    // A pulse longer than the force ring is refused, not truncated.
+    let long = vec![1.0f32; 5000];
+    assert!(!engine.excite(third, &long, 0));
+}
