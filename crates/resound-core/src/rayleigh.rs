@@ -46,7 +46,7 @@ pub struct SoundMaterial {
     pub provenance: Option<Provenance>,
     /// The residual of Ren §6, when computed from the recording.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub residual: Option<ResidualSpectrogram>,
+    pub residual: Option<Residual>,
 }
 
 /// One per-mode damping override.
@@ -58,22 +58,16 @@ pub struct ModeDamping {
     pub damping_per_s: f64,
 }
 
-/// The residual power spectrogram of Ren 2013 §6.1 (recording minus what the modes represent)
-/// with the modes it was computed against (needed to transfer it, §6.2).
+/// The residual of Ren 2013 §6.1 — what the recording holds beyond what the estimated modes
+/// represent — as audio (the input of Ren's Algorithm 1), with the modes it was computed
+/// against (needed to transfer it to other objects and hit points, §6.2). Its level is for a
+/// unit impulse, like the modes' amplitudes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ResidualSpectrogram {
-    /// Sample rate of the recording, Hz.
+pub struct Residual {
+    /// Sample rate, Hz.
     pub sample_rate_hz: f64,
-    /// Hann window length, samples.
-    pub window_len: usize,
-    /// Hop, samples.
-    pub hop: usize,
-    /// Frames.
-    pub frames: usize,
-    /// Bins per frame (window_len/2 + 1).
-    pub bins: usize,
-    /// Power per cell in dB (frame-major), rounded to 0.01 dB; −200 for empty cells.
-    pub power_db: Vec<f32>,
+    /// The residual signal from the onset, full scale = 1.
+    pub samples: Vec<f32>,
     /// The estimated modes of the recorded object at the recorded hit (the source modes).
     pub source_modes: Vec<DampedMode>,
 }
@@ -291,7 +285,10 @@ mod tests {
             mode: 1,
             damping_per_s: 42.0,
         });
-        assert_eq!(m.modes(&l0, &[1e-3, -2e-3], 1.0e7, 1e5)[1].damping_per_s, 42.0);
+        assert_eq!(
+            m.modes(&l0, &[1e-3, -2e-3], 1.0e7, 1e5)[1].damping_per_s,
+            42.0
+        );
         m.damping_model = "caughey".into();
         assert!(m.validate().is_err());
         m.caughey = vec![2.0, 1e-7];

@@ -60,6 +60,23 @@ pub fn match_score(a: &FeaturePoint, b: &FeaturePoint) -> f64 {
     (-0.5 * d2).exp()
 }
 
+/// Point-to-set match ratio of `p` against `to` (eq. 24): a soft nearest-neighbour score in
+/// [0, 1], 1 when a well-weighted point of `to` coincides with `p`.
+pub fn point_ratio(p: &FeaturePoint, to: &[FeaturePoint]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for q in to {
+        let k = match_score(p, q);
+        let u = q.weight * k + 1e-12 * q.weight;
+        num += u * k;
+        den += u;
+    }
+    if den > 0.0 {
+        num / den
+    } else {
+        0.0
+    }
+}
+
 /// Set-to-set match ratio of `from` against `to` (eqs. 23–24). Zero when either set carries no
 /// weight.
 pub fn match_ratio(from: &[FeaturePoint], to: &[FeaturePoint]) -> f64 {
@@ -67,20 +84,21 @@ pub fn match_ratio(from: &[FeaturePoint], to: &[FeaturePoint]) -> f64 {
     if !(total > 0.0) {
         return 0.0;
     }
-    let sum: f64 = from
+    from.iter()
+        .map(|p| p.weight * point_ratio(p, to))
+        .sum::<f64>()
+        / total
+}
+
+/// How well each reference mode is represented by the estimated modes: its point-to-set
+/// match ratio (Ren §6.1 weights the reference features by these to form the represented
+/// sound).
+pub fn represented_ratios(reference: &[DampedMode], estimated: &[DampedMode]) -> Vec<f64> {
+    let e: Vec<FeaturePoint> = estimated.iter().map(FeaturePoint::of).collect();
+    reference
         .iter()
-        .map(|p| {
-            let (mut num, mut den) = (0.0, 0.0);
-            for q in to {
-                let k = match_score(p, q);
-                let u = q.weight * k + 1e-12 * q.weight;
-                num += u * k;
-                den += u;
-            }
-            p.weight * if den > 0.0 { num / den } else { 0.0 }
-        })
-        .sum();
-    sum / total
+        .map(|m| point_ratio(&FeaturePoint::of(m), &e))
+        .collect()
 }
 
 /// The Match Ratio Product `−R·R̃` of reference and estimated modes (eq. 26), in [−1, 0].

@@ -101,7 +101,11 @@ impl ModalBank {
     }
 
     /// A bank holding `modes`.
-    pub fn new(sample_rate_hz: f64, modes: &[BankMode], cull_level: f32) -> Result<Self, SynthError> {
+    pub fn new(
+        sample_rate_hz: f64,
+        modes: &[BankMode],
+        cull_level: f32,
+    ) -> Result<Self, SynthError> {
         let mut b = Self::with_capacity(sample_rate_hz, modes.len(), cull_level)?;
         b.configure(modes)?;
         Ok(b)
@@ -314,7 +318,12 @@ fn run_chunk(c: &mut Chunk, x: &[f32], acc: &mut [[f32; LANES]]) {
 
 /// The reference: the response of `modes` to `force` as an f64 sum over modes and samples of
 /// the exact sampled convolution (O(modes × samples × pulse)). For tests and benchmarks.
-pub fn reference_response(modes: &[BankMode], sample_rate_hz: f64, force: &[f64], len: usize) -> Vec<f64> {
+pub fn reference_response(
+    modes: &[BankMode],
+    sample_rate_hz: f64,
+    force: &[f64],
+    len: usize,
+) -> Vec<f64> {
     let t = 1.0 / sample_rate_hz;
     let mut out = vec![0.0; len];
     for (m_idx, &f) in force.iter().enumerate() {

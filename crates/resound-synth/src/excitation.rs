@@ -112,7 +112,9 @@ impl Impact {
     /// Contact duration of `model` at this speed, s.
     pub fn duration_s(&self, model: ContactModel) -> f64 {
         match model {
-            ContactModel::Spring => std::f64::consts::PI * (self.reduced_mass_kg() / self.spring_constant()).sqrt(),
+            ContactModel::Spring => {
+                std::f64::consts::PI * (self.reduced_mass_kg() / self.spring_constant()).sqrt()
+            }
             ContactModel::Hertz => {
                 if self.speed_m_s > 0.0 {
                     2.943_5 * self.hertz_max_compression_m(self.speed_m_s) / self.speed_m_s
@@ -245,7 +247,11 @@ mod tests {
     fn impulse_is_two_m_v_and_spring_lasts_pi_sqrt_m_over_k() {
         let fs = 192_000.0;
         let imp = steel_ball_on_glass(1.3);
-        for model in [ContactModel::Spring, ContactModel::Hertz, ContactModel::Impulse] {
+        for model in [
+            ContactModel::Spring,
+            ContactModel::Hertz,
+            ContactModel::Impulse,
+        ] {
             let p = imp.force_pulse(model, fs, 0.3 / fs).unwrap();
             let j: f64 = p.iter().map(|&f| f64::from(f) / fs).sum();
             assert!((j / imp.impulse_n_s() - 1.0).abs() < 1e-5, "{model:?}: {j}");
@@ -268,14 +274,20 @@ mod tests {
             let p = imp.force_pulse(ContactModel::Hertz, fs, 0.0).unwrap();
             let nonzero = p.iter().filter(|&&f| f > 0.0).count() as f64 / fs;
             let want = imp.duration_s(ContactModel::Hertz);
-            assert!((nonzero / want - 1.0).abs() < 0.01, "v {v}: {nonzero} vs {want}");
+            assert!(
+                (nonzero / want - 1.0).abs() < 0.01,
+                "v {v}: {nonzero} vs {want}"
+            );
         }
         let slow = steel_ball_on_glass(0.1).duration_s(ContactModel::Hertz);
         let fast = steel_ball_on_glass(3.2).duration_s(ContactModel::Hertz);
         assert!((slow / fast - 32f64.powf(0.2)).abs() < 1e-9);
         // Both laws agree at 1 m/s by construction (same peak compression and impulse).
         let one = steel_ball_on_glass(1.0);
-        let (s, h) = (one.duration_s(ContactModel::Spring), one.duration_s(ContactModel::Hertz));
+        let (s, h) = (
+            one.duration_s(ContactModel::Spring),
+            one.duration_s(ContactModel::Hertz),
+        );
         assert!((s / h - 1.0).abs() < 0.1, "{s} {h}");
     }
 

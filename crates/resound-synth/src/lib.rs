@@ -17,7 +17,7 @@ pub mod benchmark;
 pub mod engine;
 pub mod excitation;
 pub mod render;
-
+pub mod residual;
 
 pub use bank::{BankMode, ModalBank};
 pub use engine::{Engine, EngineParams, VoiceId};

@@ -13,11 +13,31 @@ static A: assert_no_alloc::AllocDisabler = assert_no_alloc::AllocDisabler;
 
 fn modes() -> Vec<BankMode> {
     let mut m = vec![
-        BankMode { freq_hz: 30.0, damping_per_s: 0.4, gain: 0.8 },
-        BankMode { freq_hz: 31.7, damping_per_s: 2.0, gain: -0.5 },
-        BankMode { freq_hz: 440.0, damping_per_s: 3.0, gain: 0.3 },
-        BankMode { freq_hz: 12_345.0, damping_per_s: 40.0, gain: 0.2 },
-        BankMode { freq_hz: 47_000.0, damping_per_s: 900.0, gain: 0.1 },
+        BankMode {
+            freq_hz: 30.0,
+            damping_per_s: 0.4,
+            gain: 0.8,
+        },
+        BankMode {
+            freq_hz: 31.7,
+            damping_per_s: 2.0,
+            gain: -0.5,
+        },
+        BankMode {
+            freq_hz: 440.0,
+            damping_per_s: 3.0,
+            gain: 0.3,
+        },
+        BankMode {
+            freq_hz: 12_345.0,
+            damping_per_s: 40.0,
+            gain: 0.2,
+        },
+        BankMode {
+            freq_hz: 47_000.0,
+            damping_per_s: 900.0,
+            gain: 0.1,
+        },
     ];
     // Enough for two chunks.
     for k in 0..20 {
@@ -48,7 +68,11 @@ fn bank_matches_the_f64_sum_of_damped_sinusoids_over_five_seconds_at_96_khz() {
         .map(|k| {
             let t = k as f64 / fs;
             m.iter()
-                .map(|md| md.gain * (-md.damping_per_s * t).exp() * (std::f64::consts::TAU * md.freq_hz * t).sin())
+                .map(|md| {
+                    md.gain
+                        * (-md.damping_per_s * t).exp()
+                        * (std::f64::consts::TAU * md.freq_hz * t).sin()
+                })
                 .sum()
         })
         .collect();
@@ -67,14 +91,19 @@ fn bank_matches_the_f64_sum_of_damped_sinusoids_over_five_seconds_at_96_khz() {
         .zip(tail)
         .map(|(&a, &b)| (f64::from(a) - b).abs())
         .fold(0.0, f64::max);
-    assert!(tail_err <= 5e-4 * tail_peak, "tail error {tail_err:e} vs {tail_peak}");
+    assert!(
+        tail_err <= 5e-4 * tail_peak,
+        "tail error {tail_err:e} vs {tail_peak}"
+    );
 }
 
 #[test]
 fn a_shaped_force_gives_the_exact_sampled_convolution() {
     let fs = 48_000.0;
     let m = modes();
-    let force: Vec<f64> = (0..40).map(|k| (std::f64::consts::PI * k as f64 / 40.0).sin() * 30.0).collect();
+    let force: Vec<f64> = (0..40)
+        .map(|k| (std::f64::consts::PI * k as f64 / 40.0).sin() * 30.0)
+        .collect();
     let want = reference_response(&m, fs, &force, 4800);
     let f32s: Vec<f32> = force.iter().map(|&v| v as f32).collect();
     let got = resound_synth::render::render_strike(&m, &f32s, fs, 4800).unwrap();
@@ -127,7 +156,11 @@ fn quiet_modes_are_culled_and_the_voice_ends() {
     bank.process(&force, &mut out);
     assert!(!bank.is_silent());
     // After a second the heavily damped chunk is gone, the 30 Hz one still rings.
-    assert!(bank.active_modes() < bank.modes().div_ceil(16) * 16, "{}", bank.active_modes());
+    assert!(
+        bank.active_modes() < bank.modes().div_ceil(16) * 16,
+        "{}",
+        bank.active_modes()
+    );
     let mut quiet = vec![0.0f32; 48_000];
     let mut out = vec![0.0f32; 48_000];
     for _ in 0..40 {
@@ -151,7 +184,9 @@ fn engine_process_does_not_allocate_and_steals_the_quietest_voice() {
     })
     .unwrap();
     let m = modes();
-    let pulse: Vec<f32> = (0..20).map(|k| 100.0 * (std::f32::consts::PI * k as f32 / 20.0).sin()).collect();
+    let pulse: Vec<f32> = (0..20)
+        .map(|k| 100.0 * (std::f32::consts::PI * k as f32 / 20.0).sin())
+        .collect();
     let mut out = vec![0.0f32; 512];
     let (loud, quiet) = assert_no_alloc(|| {
         let loud = engine.start(&m, 1.0).unwrap();
