@@ -55,9 +55,17 @@ pub struct EstimateArgs {
     /// Material library (default: $RESOUND_LIBRARY or ~/.local/share/resound/materials.sqlite).
     #[arg(long)]
     pub library: Option<PathBuf>,
+    /// Do not compute and store the residual (Ren §6.1).
+    #[arg(long)]
+    pub no_residual: bool,
 }
 
-fn library_path(p: &Option<PathBuf>) -> Result<PathBuf> {
+/// Longest residual stored with a material, s (keeps material files small; a residual is
+/// mostly the strike's transient).
+const MAX_RESIDUAL_S: f64 = 1.0;
+
+/// The material library path from `--library` or the default.
+pub fn library_path(p: &Option<PathBuf>) -> Result<PathBuf> {
     match p {
         Some(p) => Ok(p.clone()),
         None => default_library_path()
@@ -65,20 +73,26 @@ fn library_path(p: &Option<PathBuf>) -> Result<PathBuf> {
     }
 }
 
-fn load_model(a: &EstimateArgs) -> Result<ModalModel> {
-    if a.mesh
+/// A modal model from a saved `.rmodal` or a mesh (solved here with `reference_material`).
+pub fn load_model(
+    mesh_path: &std::path::Path,
+    scale: f64,
+    modes: usize,
+    reference_material: &str,
+) -> Result<ModalModel> {
+    if mesh_path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("rmodal"))
     {
-        return Ok(model_file::load(&a.mesh)?);
+        return Ok(model_file::load(mesh_path)?);
     }
-    let material = Material::parse(&a.reference_material)?;
+    let material = Material::parse(reference_material)?;
     let p = ModalParams {
-        n_modes: Some(a.modes),
+        n_modes: Some(modes),
         max_freq_hz: None,
         ..Default::default()
     };
-    let mesh = load_mesh(&a.mesh, a.scale).context("loading the mesh")?;
+    let mesh = load_mesh(mesh_path, scale).context("loading the mesh")?;
     let pb = spinner("modal");
     let progress = |s| stage_message(&pb, s);
     let r = match &mesh {
@@ -117,7 +131,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             a.audio.display()
         );
     }
-    let model = load_model(&a)?;
+    let model = load_model(&a.mesh, a.scale, a.modes, &a.reference_material)?;
     let (gains, point, _, distance) = hit_gains(&model, hit)?;
     if distance > 1e-6 {
         eprintln!(
@@ -162,7 +176,24 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             .file_stem()
             .map_or("estimated".into(), |s| s.to_string_lossy().into_owned())
     });
+    // Ren §6.1: the residual against the estimated modes on this object at this hit.
+    let estimated_modes = resound::estimate::forward_modes(
+        &side.eigenvalues0,
+        &side.gains0,
+        side.gamma0,
+        &est.params,
+        0.5 * fs,
+    );
+    let residual = if a.no_residual {
+        None
+    } else {
+        let mut r =
+            resound::synth::residual::compute_residual(&seg, fs, &analysis.modes, &estimated_modes);
+        r.samples.truncate((MAX_RESIDUAL_S * fs) as usize);
+        Some(r)
+    };
     let material = SoundMaterial {
+        residual,
         provenance: Some(Provenance {
             recording: a.audio.display().to_string(),
             mesh: a.mesh.display().to_string(),
@@ -294,12 +325,12 @@ pub struct ExportArg {
     pub library: Option<PathBuf>,
 }
 
-fn open(p: &Option<PathBuf>) -> Result<Library> {
+pub fn open(p: &Option<PathBuf>) -> Result<Library> {
     let path = library_path(p)?;
     Library::open(&path).with_context(|| format!("opening the material library {}", path.display()))
 }
 
-fn get(lib: &Library, name: &str) -> Result<SoundMaterial> {
+pub fn get(lib: &Library, name: &str) -> Result<SoundMaterial> {
     lib.get(name)?.with_context(|| {
         format!(
             "no material {name:?} in the library (known: {})",

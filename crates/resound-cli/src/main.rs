@@ -12,6 +12,7 @@ mod estimate_cmd;
 mod mesh_cmd;
 mod modal_cmd;
 mod plot;
+mod synth_cmd;
 mod util;
 
 /// Resound: find the material behind a recorded strike and make any object of it sound right.
@@ -41,6 +42,8 @@ enum Command {
     /// List, show, import, export and remove materials in the material library (SQLite).
     #[command(subcommand)]
     Materials(estimate_cmd::MaterialsCmd),
+    /// Render one strike of an object of a material (modes + residual), or analysed modes, to WAV.
+    Synth(synth_cmd::SynthArgs),
     /// Inspect a saved modal model, optionally rescaled to another material or at a hit point.
     Model(modal_cmd::ModelInfoArgs),
     /// Run the benchmarks and print their figures (table or JSON).
@@ -60,6 +63,7 @@ fn main() -> ExitCode {
         Command::Analyze(a) => analyze_cmd::run(a),
         Command::Estimate(a) => estimate_cmd::run(a),
         Command::Materials(c) => estimate_cmd::run_materials(c),
+        Command::Synth(a) => synth_cmd::run(a),
         Command::Bench(c) => bench::run(c),
         Command::BenchCase(a) => bench::run_case(a),
     };

@@ -518,6 +518,137 @@ fn estimate_recovers_a_known_material_and_fills_the_library() {
     }
     assert!(v["starts"].as_u64().unwrap() >= 1 && v["elapsed_s"].is_number());
     assert!(d.join("barsteel.json").exists());
+    // The estimate carries its residual; synthesis with the reference impact (default
+    // impactor at 1 m/s) as an impulse reproduces the recording's level and modes.
+    let saved: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("barsteel.json")).unwrap()).unwrap();
+    assert!(
+        saved["residual"]["samples"].is_array(),
+        "no residual stored"
+    );
+    let synth = |v: &str, hit: &str, out: &str| -> Value {
+        serde_json::from_str(&ok(&resound(
+            &[
+                "synth",
+                "--material",
+                "barsteel",
+                "--library",
+                "lib.sqlite",
+                "--mesh",
+                "bar.rmodal",
+                "--hit",
+                hit,
+                "--contact",
+                "impulse",
+                "--velocity",
+                v,
+                "--duration",
+                "1",
+                "--sample-rate",
+                "44100",
+                "--format",
+                "float",
+                "--json",
+                "-o",
+                out,
+            ],
+            d,
+        )))
+        .unwrap()
+    };
+    let s1 = synth("0.25", "0.1,0,0.005", "s1.wav");
+    assert_eq!(s1["residual"], "natural", "{s1}");
+    let s2 = synth("0.5", "0.1,0,0.005", "s2.wav");
+    let p1 = s1["peak"].as_f64().unwrap();
+    let p2 = s2["peak"].as_f64().unwrap();
+    assert!(
+        (p2 / p1 - 2.0).abs() < 0.02,
+        "twice the speed, twice the level: {p1} {p2}"
+    );
+    let other = synth("0.25", "-0.12,0,0.005", "s3.wav");
+    assert_eq!(other["residual"], "dominant", "{other}");
+    let analyse = |f: &str| -> Vec<Value> {
+        let v: Value =
+            serde_json::from_str(&ok(&resound(&["analyze", f, "--json", "-"], d))).unwrap();
+        v["modes"].as_array().unwrap().clone()
+    };
+    let strongest = |m: &[Value]| {
+        m.iter()
+            .max_by(|a, b| {
+                a["amplitude"]
+                    .as_f64()
+                    .unwrap()
+                    .total_cmp(&b["amplitude"].as_f64().unwrap())
+            })
+            .unwrap()
+            .clone()
+    };
+    let rec = strongest(&analyse("hit.wav"));
+    let one = synth("1", "0.1,0,0.005", "s4.wav");
+    assert!(one["gain_db"].as_f64().unwrap() == 0.0, "{one}");
+    let syn = strongest(&analyse("s4.wav"));
+    for key in ["freq_hz", "amplitude"] {
+        let (a, b) = (rec[key].as_f64().unwrap(), syn[key].as_f64().unwrap());
+        assert!(
+            (a / b - 1.0).abs() < 0.03,
+            "{key}: recording {a} vs synthesis {b}"
+        );
+    }
+    // Analysed modes render back to themselves.
+    ok(&resound(&["analyze", "hit.wav", "--json", "modes.json"], d));
+    ok(&resound(
+        &[
+            "synth",
+            "--modes",
+            "modes.json",
+            "--duration",
+            "1",
+            "--sample-rate",
+            "44100",
+            "-o",
+            "m.wav",
+        ],
+        d,
+    ));
+    let back = strongest(&analyse("m.wav"));
+    assert!(
+        (back["freq_hz"].as_f64().unwrap() / rec["freq_hz"].as_f64().unwrap() - 1.0).abs() < 1e-4
+    );
+    fails_with(
+        &resound(
+            &[
+                "synth",
+                "--modes",
+                "modes.json",
+                "--velocity",
+                "-1",
+                "-o",
+                "x.wav",
+            ],
+            d,
+        ),
+        "--velocity",
+    );
+    fails_with(
+        &resound(
+            &[
+                "synth",
+                "--material",
+                "nosuch",
+                "--library",
+                "lib.sqlite",
+                "--mesh",
+                "bar.rmodal",
+                "--hit",
+                "0,0,0",
+                "-o",
+                "x.wav",
+            ],
+            d,
+        ),
+        "no material",
+    );
+    assert!(!d.join("x.wav").exists());
     let list = ok(&resound(
         &["materials", "list", "--library", "lib.sqlite"],
         d,

@@ -79,7 +79,7 @@ impl ModalBank {
         capacity: usize,
         cull_level: f32,
     ) -> Result<Self, SynthError> {
-        if !(sample_rate_hz >= 1000.0 && sample_rate_hz <= 768_000.0) {
+        if !(1000.0..=768_000.0).contains(&sample_rate_hz) {
             return Err(SynthError::SampleRate(sample_rate_hz));
         }
         if !(cull_level >= 0.0 && cull_level.is_finite()) {
@@ -260,7 +260,7 @@ impl ModalBank {
                 *o += a.iter().sum::<f32>();
             }
             self.clock += len;
-            if self.clock % CORRECTION_PERIOD == 0 {
+            if self.clock.is_multiple_of(CORRECTION_PERIOD) {
                 self.correct_and_cull();
             }
             start += len;

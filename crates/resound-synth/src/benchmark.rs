@@ -92,3 +92,72 @@ pub fn scalar_loop_mode_samples_per_s(modes: usize, seconds: f64) -> f64 {
     std::hint::black_box(&out);
     (modes * done) as f64 / s
 }
+
+/// A 1 s residual at 48 kHz — decaying noise bands around 12 source modes — and its modes.
+pub fn test_residual(seed: u64) -> resound_core::Residual {
+    use rand::{Rng, SeedableRng};
+    let fs = 48_000.0;
+    let modes: Vec<resound_core::DampedMode> = (0..12)
+        .map(|i| {
+            resound_core::DampedMode::new(
+                300.0 * 1.35f64.powi(i),
+                10.0 + 5.0 * i as f64,
+                0.2 / (1.0 + i as f64),
+            )
+        })
+        .collect();
+    let n = 48_000;
+    let mut samples = vec![0.0f32; n];
+    let mut rng = rand::rngs::SmallRng::seed_from_u64(seed);
+    for m in &modes {
+        let mut y = 0.0;
+        for (k, s) in samples.iter_mut().enumerate() {
+            let t = k as f64 / fs;
+            y = 0.97 * y + 0.03 * (rng.random::<f64>() * 2.0 - 1.0);
+            *s += (m.amplitude
+                * y
+                * (-3.0 * t).exp()
+                * (std::f64::consts::TAU * m.freq_hz * t).sin()) as f32;
+        }
+    }
+    resound_core::Residual {
+        sample_rate_hz: fs,
+        samples,
+        source_modes: modes,
+    }
+}
+
+/// Latencies (ms) of `events` residual transfers of a 1 s residual to target objects whose modes
+/// differ from event to event (each mode's frequency and damping scaled by a random factor of
+/// 0.8–1.25), 10 fast Griffin–Lim iterations, dominant pairing. Sorted ascending.
+pub fn residual_transfer_latencies_ms(events: usize, seed: u64) -> Vec<f64> {
+    use crate::residual::{GriffinLim, Pairing, ResidualSource};
+    use rand::{Rng, SeedableRng};
+    let r = test_residual(seed);
+    let mut src = ResidualSource::new(&r);
+    let mut rng = rand::rngs::SmallRng::seed_from_u64(seed + 1);
+    let mut out: Vec<f64> = (0..events)
+        .map(|_| {
+            let target: Vec<resound_core::DampedMode> = r
+                .source_modes
+                .iter()
+                .map(|m| {
+                    let s: f64 = 0.8 + 0.45 * rng.random::<f64>();
+                    resound_core::DampedMode {
+                        freq_hz: m.freq_hz * s,
+                        damping_per_s: m.damping_per_s * (0.8 + 0.45 * rng.random::<f64>()),
+                        amplitude: m.amplitude * (0.5 + rng.random::<f64>()),
+                        phase_rad: 0.0,
+                    }
+                })
+                .collect();
+            let t0 = Instant::now();
+            let x = src.transfer(&target, Pairing::Dominant(8), &GriffinLim::default());
+            let ms = t0.elapsed().as_secs_f64() * 1e3;
+            std::hint::black_box(&x);
+            ms
+        })
+        .collect();
+    out.sort_by(f64::total_cmp);
+    out
+}

@@ -23,7 +23,7 @@
 //!
 //! **Reconstruction.** Griffin–Lim from the transferred magnitudes, started from the
 //! transferred source phases; the fast variant (Perraudin, Balazs & Søndergaard 2013: momentum
-//! 0.99) by default, 10 iterations as in the paper. Hann windows of about 21 ms, hop W/4.
+//! 0.99) by default, 10 iterations as in the paper. Sine (√Hann) windows of about 21 ms, hop W/2.
 
 use realfft::num_complex::Complex32;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
@@ -39,8 +39,10 @@ pub fn window_len_for(sample_rate_hz: f64) -> usize {
         .max(64)
 }
 
-/// A Hann STFT with hop W/4 and its exact inverse (weighted overlap-add), f32, with plans and
-/// scratch kept between calls.
+/// An STFT with the periodic sine window (√Hann) and its exact inverse (weighted overlap-add),
+/// f32, with plans and scratch kept between calls. With a hop of W/2 (the default for the
+/// residual) the window's squares sum to exactly 1, so analysis and synthesis form a tight frame
+/// at half the frames of the usual W/4 hop — Griffin–Lim costs half as much.
 pub struct Stft {
     window_len: usize,
     hop: usize,
@@ -60,19 +62,22 @@ impl std::fmt::Debug for Stft {
 }
 
 impl Stft {
-    /// Plans an STFT of window `window_len` (a multiple of 4).
+    /// Plans an STFT of window `window_len` (even) and hop W/2.
     pub fn new(window_len: usize) -> Self {
+        Self::with_hop(window_len, window_len / 2)
+    }
+
+    /// Plans an STFT of window `window_len` with `hop` (W/2 or W/4 keep the frame tight).
+    pub fn with_hop(window_len: usize, hop: usize) -> Self {
         let mut planner = RealFftPlanner::<f32>::new();
         let fwd = planner.plan_fft_forward(window_len);
         let inv = planner.plan_fft_inverse(window_len);
         let window = (0..window_len)
-            .map(|i| {
-                (0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / window_len as f64).cos()) as f32
-            })
+            .map(|i| (std::f64::consts::PI * i as f64 / window_len as f64).sin() as f32)
             .collect();
         Self {
             window_len,
-            hop: window_len / 4,
+            hop: hop.max(1),
             window,
             frame: vec![0.0; window_len],
             spectrum: fwd.make_output_vec(),
@@ -103,8 +108,14 @@ impl Stft {
         (samples + self.window_len - self.hop).div_ceil(self.hop)
     }
 
-    fn frame_start(&self, m: usize) -> isize {
-        (m * self.hop) as isize - (self.window_len - self.hop) as isize
+    /// Frame m covers samples `[start, start + W)`, `start = m·hop − (W − hop)`; returns the
+    /// part inside `[0, samples)` as (offset in frame, first sample, length).
+    fn span(&self, m: usize, samples: usize) -> (usize, usize, usize) {
+        let start = (m * self.hop) as isize - (self.window_len - self.hop) as isize;
+        let first = start.max(0) as usize;
+        let offset = (first as isize - start) as usize;
+        let end = ((start + self.window_len as isize).max(0) as usize).min(samples);
+        (offset, first, end.saturating_sub(first))
     }
 
     /// The STFT of `x` into `out` (frames × bins, frame-major).
@@ -114,14 +125,14 @@ impl Stft {
         out.clear();
         out.resize(frames * bins, Complex32::new(0.0, 0.0));
         for m in 0..frames {
-            let s = self.frame_start(m);
-            for (i, f) in self.frame.iter_mut().enumerate() {
-                let n = s + i as isize;
-                *f = if n >= 0 && (n as usize) < x.len() {
-                    x[n as usize] * self.window[i]
-                } else {
-                    0.0
-                };
+            let (offset, first, len) = self.span(m, x.len());
+            self.frame.fill(0.0);
+            for ((f, &v), &w) in self.frame[offset..offset + len]
+                .iter_mut()
+                .zip(&x[first..first + len])
+                .zip(&self.window[offset..offset + len])
+            {
+                *f = v * w;
             }
             // Lengths are right by construction; a failure would leave the frame at zero.
             let _ = self.fwd.process_with_scratch(
@@ -134,14 +145,18 @@ impl Stft {
     }
 
     /// The signal of `samples` samples whose STFT is closest to `spec` (least squares: windowed
-    /// overlap-add divided by Σ w², which is 1.5 for Hann at hop W/4).
+    /// overlap-add divided by Σ w² = W / (2 hop)).
     pub fn inverse(&mut self, spec: &[Complex32], samples: usize, out: &mut Vec<f32>) {
         let bins = self.bins();
         let frames = spec.len() / bins;
         out.clear();
         out.resize(samples, 0.0);
-        let scale = 1.0 / (self.window_len as f32 * 1.5);
+        let scale = 2.0 * self.hop as f32 / (self.window_len as f32 * self.window_len as f32);
         for m in 0..frames {
+            let (offset, first, len) = self.span(m, samples);
+            if len == 0 {
+                continue;
+            }
             self.spectrum
                 .copy_from_slice(&spec[m * bins..(m + 1) * bins]);
             // A real signal's DC and Nyquist bins are real.
@@ -152,12 +167,12 @@ impl Stft {
                 &mut self.frame,
                 &mut self.scratch_inv,
             );
-            let s = self.frame_start(m);
-            for (i, &v) in self.frame.iter().enumerate() {
-                let n = s + i as isize;
-                if n >= 0 && (n as usize) < samples {
-                    out[n as usize] += v * self.window[i] * scale;
-                }
+            for ((o, &v), &w) in out[first..first + len]
+                .iter_mut()
+                .zip(&self.frame[offset..offset + len])
+                .zip(&self.window[offset..offset + len])
+            {
+                *o += v * w * scale;
             }
         }
     }
@@ -202,44 +217,73 @@ pub fn griffin_lim(
     initial: Option<&[Complex32]>,
     samples: usize,
     params: &GriffinLim,
-    mut errors: Option<&mut Vec<f64>>,
+    errors: Option<&mut Vec<f64>>,
 ) -> Vec<f32> {
+    let mut ws = GlWorkspace::default();
+    match initial {
+        Some(init) => ws.c.extend_from_slice(init),
+        None => {
+            ws.c.extend(magnitude.iter().map(|&s| Complex32::new(s, 0.0)))
+        }
+    }
+    griffin_lim_in(stft, magnitude, samples, params, errors, &mut ws);
+    std::mem::take(&mut ws.x)
+}
+
+/// Buffers of [`griffin_lim_in`], reused between calls.
+#[derive(Debug, Default)]
+pub struct GlWorkspace {
+    /// Current estimate (complex cells); holds the initial cells on entry.
+    pub c: Vec<Complex32>,
+    previous: Vec<Complex32>,
+    t: Vec<Complex32>,
+    y: Vec<Complex32>,
+    /// The reconstructed signal on return.
+    pub x: Vec<f32>,
+}
+
+/// [`griffin_lim`] in reused buffers: starts from `ws.c` (its phases), leaves the signal in
+/// `ws.x`.
+pub fn griffin_lim_in(
+    stft: &mut Stft,
+    magnitude: &[f32],
+    samples: usize,
+    params: &GriffinLim,
+    mut errors: Option<&mut Vec<f64>>,
+    ws: &mut GlWorkspace,
+) {
     let project = |cells: &mut [Complex32]| {
         for (c, &s) in cells.iter_mut().zip(magnitude) {
-            let n = c.norm();
-            *c = if n > 1e-30 {
-                *c * (s / n)
+            let n2 = c.re * c.re + c.im * c.im;
+            *c = if n2 > 1e-30 {
+                *c * (s / n2.sqrt())
             } else {
                 Complex32::new(s, 0.0)
             };
         }
     };
-    let mut c: Vec<Complex32> = match initial {
-        Some(init) => init.to_vec(),
-        None => magnitude.iter().map(|&s| Complex32::new(s, 0.0)).collect(),
-    };
-    project(&mut c);
-    let mut previous = c.clone();
-    let mut t = c.clone();
-    let mut x = Vec::new();
-    let mut y = Vec::new();
+    ws.c.resize(magnitude.len(), Complex32::new(0.0, 0.0));
+    project(&mut ws.c);
+    ws.previous.clear();
+    ws.previous.extend_from_slice(&ws.c);
+    ws.t.clear();
+    ws.t.extend_from_slice(&ws.c);
     for _ in 0..params.iterations {
-        stft.inverse(&t, samples, &mut x);
-        stft.forward(&x, &mut y);
-        project(&mut y);
-        std::mem::swap(&mut c, &mut y);
-        for ((ti, &ci), pi) in t.iter_mut().zip(&c).zip(previous.iter_mut()) {
+        stft.inverse(&ws.t, samples, &mut ws.x);
+        stft.forward(&ws.x, &mut ws.y);
+        project(&mut ws.y);
+        std::mem::swap(&mut ws.c, &mut ws.y);
+        for ((ti, &ci), pi) in ws.t.iter_mut().zip(&ws.c).zip(ws.previous.iter_mut()) {
             *ti = ci + (ci - *pi) * params.momentum;
             *pi = ci;
         }
         if let Some(e) = errors.as_deref_mut() {
             let mut xc = Vec::new();
-            stft.inverse(&c, samples, &mut xc);
+            stft.inverse(&ws.c, samples, &mut xc);
             e.push(spectral_error(stft, &xc, magnitude));
         }
     }
-    stft.inverse(&c, samples, &mut x);
-    x
+    stft.inverse(&ws.c, samples, &mut ws.x);
 }
 
 /// Computes the residual of `recording` (onset-aligned, full scale = 1) against its analysed
@@ -348,6 +392,8 @@ pub struct ResidualSource {
     phase: Vec<Complex32>,
     modes: Vec<DampedMode>,
     samples: usize,
+    magnitude: Vec<f32>,
+    ws: GlWorkspace,
 }
 
 /// One source–target mode pair with its bands.
@@ -392,6 +438,8 @@ impl ResidualSource {
             phase,
             modes,
             samples: residual.samples.len(),
+            magnitude: Vec::new(),
+            ws: GlWorkspace::default(),
         }
     }
 
@@ -457,17 +505,21 @@ impl ResidualSource {
             .collect()
     }
 
-    /// The transferred power spectrogram and initial phases for `target` modes (frames ×
-    /// bins) and its length in samples.
-    pub fn transfer_spectrogram(
+    /// The transferred magnitudes into `magnitude` and initial cells (magnitude × source phase)
+    /// into `cells` (frames × bins); returns the length in samples (0: nothing to transfer).
+    fn transfer_into(
         &self,
         target: &[DampedMode],
         pairing: Pairing,
-    ) -> (Vec<f32>, Vec<Complex32>, usize) {
+        magnitude: &mut Vec<f32>,
+        cells: &mut Vec<Complex32>,
+    ) -> usize {
         let pairs = self.pairs(target, pairing);
         let bins = self.stft.bins();
+        magnitude.clear();
+        cells.clear();
         if pairs.is_empty() || self.frames == 0 {
-            return (Vec::new(), Vec::new(), 0);
+            return 0;
         }
         // Longest stretch decides the length (at most 4× the source).
         let longest = pairs
@@ -476,8 +528,8 @@ impl ResidualSource {
             .fold(0.0f64, f64::max)
             .clamp(0.25, 4.0);
         let frames = ((self.frames as f64 * longest).ceil() as usize).max(1);
-        let mut power = vec![0.0f32; frames * bins];
-        let mut phase = vec![Complex32::new(1.0, 0.0); frames * bins];
+        magnitude.resize(frames * bins, 0.0);
+        cells.resize(frames * bins, Complex32::new(0.0, 0.0));
         let bin_hz = self.sample_rate_hz / self.stft.window_len() as f64;
         let mut p_idx = 0;
         for k in 0..bins {
@@ -498,6 +550,7 @@ impl ResidualSource {
             let k0 = (ks.floor() as usize).min(bins - 1);
             let k1 = (k0 + 1).min(bins - 1);
             let wk = (ks - k0 as f64) as f32;
+            let nearest_k = if wk < 0.5 { k0 } else { k1 };
             for m in 0..frames {
                 let ms = m as f64 * p.stretch;
                 let m0 = ms.floor() as usize;
@@ -509,37 +562,46 @@ impl ResidualSource {
                 let at = |mm: usize, kk: usize| self.power[mm * bins + kk];
                 let v = (1.0 - wm) * ((1.0 - wk) * at(m0, k0) + wk * at(m0, k1))
                     + wm * ((1.0 - wk) * at(m1, k0) + wk * at(m1, k1));
-                power[m * bins + k] = v * p.scale;
-                let nearest_k = if wk < 0.5 { k0 } else { k1 };
+                let mag = (v * p.scale).sqrt();
                 let nearest_m = if wm < 0.5 { m0 } else { m1 };
-                phase[m * bins + k] = self.phase[nearest_m * bins + nearest_k];
+                magnitude[m * bins + k] = mag;
+                cells[m * bins + k] = self.phase[nearest_m * bins + nearest_k] * mag;
             }
         }
-        let samples = ((self.samples as f64 * longest) as usize).max(1);
-        (power, phase, samples)
+        ((self.samples as f64 * longest) as usize).max(1)
+    }
+
+    /// The transferred power spectrogram (frames × bins) and its length in samples.
+    pub fn transfer_spectrogram(
+        &self,
+        target: &[DampedMode],
+        pairing: Pairing,
+    ) -> (Vec<f32>, usize) {
+        let (mut magnitude, mut cells) = (Vec::new(), Vec::new());
+        let samples = self.transfer_into(target, pairing, &mut magnitude, &mut cells);
+        (magnitude.iter().map(|m| m * m).collect(), samples)
     }
 
     /// The residual audio for `target` modes (unit impulse; scale by the impact's impulse).
+    /// Buffers are reused between calls.
     pub fn transfer(
         &mut self,
         target: &[DampedMode],
         pairing: Pairing,
         gl: &GriffinLim,
     ) -> Vec<f32> {
-        let (power, phase, samples) = self.transfer_spectrogram(target, pairing);
-        if samples <= 1 || power.is_empty() {
-            return Vec::new();
-        }
-        let magnitude: Vec<f32> = power.iter().map(|p| p.sqrt()).collect();
-        let initial: Vec<Complex32> = phase.iter().zip(&magnitude).map(|(p, &m)| p * m).collect();
-        griffin_lim(
-            &mut self.stft,
-            &magnitude,
-            Some(&initial),
-            samples,
-            gl,
-            None,
-        )
+        let mut magnitude = std::mem::take(&mut self.magnitude);
+        let mut ws = std::mem::take(&mut self.ws);
+        let samples = self.transfer_into(target, pairing, &mut magnitude, &mut ws.c);
+        let out = if samples <= 1 {
+            Vec::new()
+        } else {
+            griffin_lim_in(&mut self.stft, &magnitude, samples, gl, None, &mut ws);
+            ws.x.clone()
+        };
+        self.magnitude = magnitude;
+        self.ws = ws;
+        out
     }
 }
 
@@ -549,18 +611,20 @@ mod tests {
 
     #[test]
     fn stft_round_trip_is_exact() {
-        let mut stft = Stft::new(256);
-        let x: Vec<f32> = (0..3000)
-            .map(|i| ((i * 7919) % 1000) as f32 / 500.0 - 1.0)
-            .collect();
-        let (mut spec, mut y) = (Vec::new(), Vec::new());
-        stft.forward(&x, &mut spec);
-        stft.inverse(&spec, x.len(), &mut y);
-        let err = x
-            .iter()
-            .zip(&y)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
-        assert!(err < 1e-5, "{err}");
+        for hop in [128, 64] {
+            let mut stft = Stft::with_hop(256, hop);
+            let x: Vec<f32> = (0..3000)
+                .map(|i| ((i * 7919) % 1000) as f32 / 500.0 - 1.0)
+                .collect();
+            let (mut spec, mut y) = (Vec::new(), Vec::new());
+            stft.forward(&x, &mut spec);
+            stft.inverse(&spec, x.len(), &mut y);
+            let err = x
+                .iter()
+                .zip(&y)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f32, f32::max);
+            assert!(err < 1e-5, "hop {hop}: {err}");
+        }
     }
 }

@@ -15,6 +15,7 @@ pub use resound_fem as fem;
 pub use resound_io as io;
 pub use resound_modal as modal;
 pub use resound_signal as signal;
+pub use resound_synth as synth;
 
 /// The types most programs need.
 pub mod prelude {
