@@ -9,6 +9,7 @@ use std::process::ExitCode;
 mod analyze_cmd;
 mod bench;
 mod estimate_cmd;
+mod live;
 mod mesh_cmd;
 mod modal_cmd;
 mod plot;

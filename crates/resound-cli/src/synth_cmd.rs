@@ -97,6 +97,10 @@ pub struct SynthArgs {
     /// Print a JSON summary.
     #[arg(long)]
     pub json: bool,
+    /// Also play it on the default audio device (the engine runs in the audio callback; needs
+    /// the `live` build feature).
+    #[arg(long)]
+    pub play: bool,
 }
 
 /// The reference impact σ is calibrated to: the default impactor (a 5 mm steel ball) at 1 m/s
@@ -142,7 +146,7 @@ pub fn run(a: SynthArgs) -> Result<()> {
     }
     let samples = (a.duration * fs).round() as usize;
     let t0 = std::time::Instant::now();
-    let (mut out, summary) = match &a.modes {
+    let (mut out, summary, live) = match &a.modes {
         Some(p) => render_modes(&a, p, fs, samples)?,
         None => render_material(&a, fs, samples)?,
     };
@@ -159,6 +163,11 @@ pub fn run(a: SynthArgs) -> Result<()> {
         FormatArg::Float => WavFormat::Float32,
     };
     write_wav(&a.output, &out, a.sample_rate, format)?;
+    if a.play {
+        let mut live = live;
+        live.gain = 10f32.powf(level.gain_db / 20.0);
+        crate::live::play(live, a.sample_rate, a.duration)?;
+    }
     let mut summary = summary;
     summary["output"] = json!(a.output.display().to_string());
     summary["peak"] = json!(level.peak_before);
@@ -177,12 +186,14 @@ pub fn run(a: SynthArgs) -> Result<()> {
     Ok(())
 }
 
+type Rendered = (Vec<f32>, serde_json::Value, crate::live::LiveParts);
+
 fn render_modes(
     a: &SynthArgs,
     path: &std::path::Path,
     fs: f64,
     samples: usize,
-) -> Result<(Vec<f32>, serde_json::Value)> {
+) -> Result<Rendered> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let v: serde_json::Value =
@@ -215,18 +226,24 @@ fn render_modes(
     let impactor = Material::parse(&a.impactor_material)?;
     let mass = impactor_mass(a, &impactor);
     let scale = 2.0 * mass * a.velocity / reference_impulse_n_s();
-    let x = resound::core::damped::synthesize(&kept, fs, samples);
+    let x: Vec<f32> = resound::core::damped::synthesize(&kept, fs, samples)
+        .iter()
+        .map(|&v| (v * scale) as f32)
+        .collect();
+    let live = crate::live::LiveParts {
+        modes: Vec::new(),
+        force: Vec::new(),
+        extra: x.clone(),
+        gain: 1.0,
+    };
     Ok((
-        x.iter().map(|&v| (v * scale) as f32).collect(),
+        x,
         json!({"modes": kept.len(), "source": path.display().to_string(), "impulse_n_s": 2.0 * mass * a.velocity}),
+        live,
     ))
 }
 
-fn render_material(
-    a: &SynthArgs,
-    fs: f64,
-    samples: usize,
-) -> Result<(Vec<f32>, serde_json::Value)> {
+fn render_material(a: &SynthArgs, fs: f64, samples: usize) -> Result<Rendered> {
     let (Some(spec), Some(mesh), Some(hit)) = (&a.material, &a.mesh, &a.hit) else {
         bail!("give --material, --mesh and --hit (or --modes)");
     };
@@ -278,6 +295,7 @@ fn render_material(
     let mut bm = bank_modes(&modes);
     bm.iter_mut().for_each(|m| m.gain /= j_ref);
     let mut out = render_strike(&bm, &force, fs, samples)?;
+    let mut extra = Vec::new();
     let mut residual_s = 0.0;
     let mut pairing_used = "none";
     if let (Some(r), false) = (&material.residual, a.no_residual) {
@@ -305,10 +323,17 @@ fn render_material(
             res
         };
         let scale = impact.impulse_n_s() / j_ref;
-        for (o, v) in out.iter_mut().zip(&res) {
-            *o += (v * scale) as f32;
+        extra = res.iter().map(|v| (v * scale) as f32).collect();
+        for (o, v) in out.iter_mut().zip(&extra) {
+            *o += v;
         }
     }
+    let live = crate::live::LiveParts {
+        modes: bm,
+        force,
+        extra,
+        gain: 1.0,
+    };
     Ok((
         out,
         json!({
@@ -320,5 +345,6 @@ fn render_material(
             "residual": pairing_used,
             "residual_transfer_s": residual_s,
         }),
+        live,
     ))
 }
