@@ -1,0 +1,221 @@
+//! Contacts of simple scenes against physics and expectations.
+#![allow(clippy::unwrap_used)]
+
+use resound_physics::{simulate, BodySound, BodySpec, ContactKind, SceneParams, Shape};
+use resound_synth::excitation::Elastic;
+
+/// A sound model without FEM: three modes, equal gains at a cloud of points on a sphere of
+/// `radius` (enough for the nearest-vertex lookup).
+fn sound(radius: f64) -> BodySound {
+    let mut vertices = Vec::new();
+    for i in 0..6 {
+        for j in 0..12 {
+            let th = std::f64::consts::PI * (i as f64 + 0.5) / 6.0;
+            let ph = std::f64::consts::TAU * j as f64 / 12.0;
+            vertices.push([
+                radius * th.sin() * ph.cos(),
+                radius * th.cos(),
+                radius * th.sin() * ph.sin(),
+            ]);
+        }
+    }
+    let modes = vec![(900.0, 15.0), (2300.0, 25.0), (5100.0, 40.0)];
+    let gains = vec![0.02f32; vertices.len() * modes.len()];
+    BodySound {
+        modes,
+        vertices,
+        gains,
+        elastic: Elastic {
+            youngs_modulus: 70e9,
+            poisson_ratio: 0.25,
+        },
+    }
+}
+
+fn floor() -> BodySpec {
+    BodySpec {
+        name: "floor".into(),
+        shape: Shape::Cuboid([2.0, 0.05, 2.0]),
+        fixed: true,
+        density: 700.0,
+        position: [0.0, -0.05, 0.0],
+        rotation: [0.0; 3],
+        linvel: [0.0; 3],
+        angvel: [0.0; 3],
+        restitution: 0.6,
+        friction: 0.4,
+        sound: Some(sound(1.0)),
+    }
+}
+
+fn params(duration: f64) -> SceneParams {
+    SceneParams {
+        duration_s: duration,
+        listener: [0.0, 0.3, 0.5],
+        ..SceneParams::default()
+    }
+}
+
+fn rms(x: &[f32]) -> f64 {
+    (x.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / x.len().max(1) as f64).sqrt()
+}
+
+#[test]
+fn a_dropped_ball_bounces_on_free_fall_and_restitution_times() {
+    let h = 0.5;
+    let r = 0.03;
+    let ball = BodySpec {
+        name: "ball".into(),
+        shape: Shape::Ball(r),
+        fixed: false,
+        density: 7800.0,
+        position: [0.0, h + r, 0.0],
+        sound: Some(sound(r)),
+        ..floor()
+    };
+    let out = simulate(&[floor(), ball], &params(1.6), &|_| {}).unwrap();
+    let impacts: Vec<f64> = out
+        .events
+        .iter()
+        .filter(|e| e.kind == ContactKind::Impact)
+        .map(|e| e.time_s)
+        .collect();
+    assert!(impacts.len() >= 3, "{:?}", out.events);
+    let g = 9.81;
+    let t1 = (2.0 * h / g).sqrt();
+    assert!(
+        (impacts[0] - t1).abs() < 2e-3,
+        "first impact {} vs free fall {t1}",
+        impacts[0]
+    );
+    // Bounce intervals: 2 e v / g with the rebound speed shrinking by e each time.
+    let e = 0.6;
+    let v1 = g * t1;
+    let want = 2.0 * e * v1 / g;
+    let first = impacts[1] - impacts[0];
+    assert!(
+        (first / want - 1.0).abs() < 0.08,
+        "first bounce {first} vs {want}"
+    );
+    let ratio = (impacts[2] - impacts[1]) / first;
+    eprintln!("impacts at {impacts:?}: first {:.4} s (free fall {t1:.4}), bounce {first:.4} s (want {want:.4}), ratio {ratio:.3}", impacts[0]);
+    assert!(
+        (ratio - e).abs() < 0.06,
+        "interval ratio {ratio} vs restitution {e}"
+    );
+    // The impacts are heard: sound right after the first one, silence before.
+    let fs = 48_000.0;
+    let before = &out.channels[0][..((t1 - 0.01) * fs) as usize];
+    let after = &out.channels[0][(t1 * fs) as usize + 200..((t1 + 0.05) * fs) as usize];
+    assert!(
+        rms(before) == 0.0 && rms(after) > 1e-4,
+        "{} {}",
+        rms(before),
+        rms(after)
+    );
+}
+
+fn slide(speed: f64) -> (Vec<f32>, resound_physics::SceneStats) {
+    let half = 0.05;
+    let cube = BodySpec {
+        name: "box".into(),
+        shape: Shape::Cuboid([half; 3]),
+        fixed: false,
+        density: 500.0,
+        position: [0.0, half, 0.0],
+        linvel: [speed, 0.0, 0.0],
+        friction: 0.2,
+        sound: Some(sound(half)),
+        ..floor()
+    };
+    let mut p = params(0.3);
+    p.stereo = false;
+    let out = simulate(&[floor(), cube], &p, &|_| {}).unwrap();
+    (out.channels[0].clone(), out.stats)
+}
+
+#[test]
+fn a_sliding_box_sounds_continuously_and_louder_when_faster() {
+    let (slow, s1) = slide(1.0);
+    let (fast, s2) = slide(3.0);
+    assert!(
+        s1.sliding_steps > 20 && s2.sliding_steps > 20,
+        "{s1:?} {s2:?}"
+    );
+    // Continuous: every 20 ms window of the first 0.1 s has sound.
+    let fs = 48_000;
+    for w in fast[fs / 100..fs / 10].chunks(fs / 50) {
+        assert!(rms(w) > 0.0);
+    }
+    let (a, b) = (rms(&slow[..fs / 10]), rms(&fast[..fs / 10]));
+    eprintln!("sliding rms at 1 m/s {a:.3e}, at 3 m/s {b:.3e}; {s1:?}");
+    assert!(b > 1.5 * a, "slow {a} fast {b}");
+}
+
+#[test]
+fn a_rolling_ball_is_rolling_not_sliding_and_not_impacts() {
+    let r = 0.04;
+    let v = 1.0;
+    let ball = BodySpec {
+        name: "ball".into(),
+        shape: Shape::Ball(r),
+        fixed: false,
+        density: 1200.0,
+        position: [0.0, r, 0.0],
+        linvel: [v, 0.0, 0.0],
+        angvel: [0.0, 0.0, -v / r],
+        sound: Some(sound(r)),
+        ..floor()
+    };
+    let out = simulate(&[floor(), ball], &params(0.5), &|_| {}).unwrap();
+    let s = &out.stats;
+    eprintln!("rolling: {s:?}");
+    assert!(s.rolling_steps > 100, "{s:?}");
+    assert!(s.sliding_steps * 20 < s.rolling_steps, "{s:?}");
+    assert!(s.impacts <= 1, "{s:?}");
+    assert!(rms(&out.channels[0][4800..]) > 0.0);
+}
+
+#[test]
+fn resting_contacts_are_silent() {
+    let half = 0.05;
+    let cube = BodySpec {
+        name: "box".into(),
+        shape: Shape::Cuboid([half; 3]),
+        fixed: false,
+        density: 500.0,
+        position: [0.0, half, 0.0],
+        sound: Some(sound(half)),
+        ..floor()
+    };
+    let out = simulate(&[floor(), cube], &params(1.0), &|_| {}).unwrap();
+    let late: Vec<_> = out.events.iter().filter(|e| e.time_s > 0.1).collect();
+    assert!(late.is_empty(), "{late:?}");
+    let tail = &out.channels[0][9600..];
+    assert!(
+        tail.iter().all(|v| v.abs() < 1e-6),
+        "droning: rms {}",
+        rms(tail)
+    );
+}
+
+#[test]
+fn bad_bodies_and_settings_are_named() {
+    let mut b = floor();
+    b.density = -1.0;
+    let e = simulate(&[b], &params(1.0), &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("floor") && e.contains("density"), "{e}");
+    let mut b = floor();
+    b.fixed = false;
+    b.shape = Shape::TriMesh {
+        vertices: vec![[0.0; 3]; 3],
+        triangles: vec![[0, 1, 2]],
+    };
+    assert!(simulate(&[b], &params(1.0), &|_| {})
+        .unwrap_err()
+        .to_string()
+        .contains("fixed"));
+    assert!(simulate(&[floor()], &params(-1.0), &|_| {}).is_err());
+}
