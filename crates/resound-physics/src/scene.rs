@@ -284,8 +284,10 @@ pub fn simulate(
         check_body(b)?;
     }
     let dt = 1.0 / params.steps_per_s;
-    let mut world = PhysicsWorld::default();
-    world.gravity = v3(params.gravity);
+    let mut world = PhysicsWorld {
+        gravity: v3(params.gravity),
+        ..Default::default()
+    };
     world.integration_parameters.dt = dt as f32;
     let mut handles = Vec::with_capacity(bodies.len());
     for (i, b) in bodies.iter().enumerate() {
