@@ -7,7 +7,7 @@ use clap::{Args, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use resound::core::{Material, ModalModel, Provenance, SoundMaterial};
 use resound::estimate::{
-    estimate, estimate::starting_points, estimate::Objective, EstimateParams, ModalSide,
+    estimate, estimate::starting_points_within, estimate::Objective, EstimateParams, ModalSide,
 };
 use resound::io::library::{default_library_path, read_material, write_material, Library};
 use resound::io::{load_audio, load_mesh, model_file, LoadedMesh};
@@ -158,7 +158,9 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     }
     seg.truncate(analysis.samples);
     let ep = EstimateParams::default();
-    let n_starts = starting_points(&side, &analysis.modes, ep.dominant).len();
+    let n_starts = starting_points_within(&side, &analysis.modes, ep.dominant, seg.len() as f64 / fs)
+        .len()
+        .min(resound::estimate::estimate::MAX_STARTS);
     let pb = ProgressBar::new(n_starts as u64);
     pb.set_style(
         ProgressStyle::with_template("{prefix} [{elapsed}] {bar:30} {pos}/{len} starts")

@@ -13,6 +13,7 @@ mod live;
 mod mesh_cmd;
 mod modal_cmd;
 mod plot;
+mod scene_cmd;
 mod synth_cmd;
 mod util;
 
@@ -45,6 +46,8 @@ enum Command {
     Materials(estimate_cmd::MaterialsCmd),
     /// Render one strike of an object of a material (modes + residual), or analysed modes, to WAV.
     Synth(synth_cmd::SynthArgs),
+    /// Render a physics scene (TOML: bodies, materials, listener) to WAV and an event log.
+    Scene(scene_cmd::SceneArgs),
     /// Inspect a saved modal model, optionally rescaled to another material or at a hit point.
     Model(modal_cmd::ModelInfoArgs),
     /// Run the benchmarks and print their figures (table or JSON).
@@ -65,6 +68,7 @@ fn main() -> ExitCode {
         Command::Estimate(a) => estimate_cmd::run(a),
         Command::Materials(c) => estimate_cmd::run_materials(c),
         Command::Synth(a) => synth_cmd::run(a),
+        Command::Scene(a) => scene_cmd::run(a),
         Command::Bench(c) => bench::run(c),
         Command::BenchCase(a) => bench::run_case(a),
     };

@@ -107,7 +107,7 @@ pub struct SynthArgs {
 /// on an immovable object. A material's σ makes its object sound at the recording's level for
 /// that impact; other impacts scale with their impulse.
 fn reference_impulse_n_s() -> f64 {
-    2.0 * 4.0 / 3.0 * std::f64::consts::PI * 0.005f64.powi(3) * 7850.0
+    resound::synth::render::REFERENCE_IMPULSE_N_S
 }
 
 fn impactor_mass(a: &SynthArgs, impactor: &Material) -> f64 {

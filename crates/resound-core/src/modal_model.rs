@@ -186,6 +186,46 @@ impl ModalModel {
         u
     }
 
+    /// [`ModalModel::gains`] at every surface vertex along its area-weighted normal,
+    /// vertex-major (`n_vertices × n_modes`).
+    pub fn vertex_gains(&self) -> Vec<f64> {
+        let nv = self.n_vertices();
+        let mut normals = vec![[0.0f64; 3]; nv];
+        for t in &self.triangles {
+            let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+            let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+            let n = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            for &i in t {
+                for k in 0..3 {
+                    normals[i as usize][k] += n[k];
+                }
+            }
+        }
+        let m = self.n_modes();
+        let mut out = vec![0.0; nv * m];
+        for (v, n) in normals.iter().enumerate() {
+            let len = crate::geometry::dot(*n, *n).sqrt();
+            if !(len > 0.0) {
+                continue;
+            }
+            let n = [n[0] / len, n[1] / len, n[2] / len];
+            for j in 0..m {
+                let w = self.eigenvalues[j].max(0.0).sqrt();
+                if w > 0.0 {
+                    let s = self.shape(j, v);
+                    let u = [f64::from(s[0]), f64::from(s[1]), f64::from(s[2])];
+                    out[v * m + j] = crate::geometry::dot(u, n) / w;
+                }
+            }
+        }
+        out
+    }
+
     /// Impulse-response gains a⁰_j = (φ_j·n)/ω_j (Ren 2013 eq. 11) for a unit impulse (1 N·s)
     /// along the surface normal at `sp`: the displacement amplitude (m) of mode j per N·s.
     /// Modes with ω = 0 get gain 0.
@@ -217,6 +257,19 @@ mod tests {
             shapes: (0..18).map(|i| i as f32 * 0.1).collect(),
             fem_dofs: 9,
             fem_elements: 1,
+        }
+    }
+
+    #[test]
+    fn vertex_gains_equal_gains_at_the_vertices() {
+        let m = toy();
+        let vg = m.vertex_gains();
+        for v in 0..3 {
+            let sp = m.locate_hit(m.vertices[v], 1e-9).unwrap();
+            let g = m.gains(&sp);
+            for j in 0..2 {
+                assert!((vg[v * 2 + j] - g[j]).abs() < 1e-9, "{v} {j}");
+            }
         }
     }
 

@@ -129,7 +129,10 @@ impl<'a> Objective<'a> {
             side,
             grid,
             reference_image,
-            reference_points: reference_modes.iter().map(FeaturePoint::of).collect(),
+            reference_points: reference_modes
+                .iter()
+                .map(|m| FeaturePoint::within(m, signal.len() as f64 / sample_rate_hz))
+                .collect(),
             max_freq_hz: 0.5 * sample_rate_hz,
             route,
             samples: signal.len(),
@@ -183,7 +186,11 @@ impl<'a> Objective<'a> {
             ),
         };
         let psycho = image.distance(&self.reference_image);
-        let points: Vec<FeaturePoint> = modes.iter().map(FeaturePoint::of).collect();
+        let duration = self.samples as f64 / self.grid.sample_rate_hz;
+        let points: Vec<FeaturePoint> = modes
+            .iter()
+            .map(|m| FeaturePoint::within(m, duration))
+            .collect();
         let mrp = match_ratio(&self.reference_points, &points)
             * match_ratio(&points, &self.reference_points);
         if !(mrp > 1e-12) {
@@ -258,16 +265,26 @@ pub fn circle_through(a: &DampedMode, b: &DampedMode) -> Option<(f64, f64)> {
     (alpha >= -1e-9 * yc && beta.is_finite()).then_some((alpha.max(0.0), beta))
 }
 
-/// The starting points of §5.3.
+/// The starting points of §5.3 (dominance judged over up to 1 s).
 pub fn starting_points(
     side: &ModalSide,
     reference: &[DampedMode],
     dominant: usize,
 ) -> Vec<RayleighParams> {
+    starting_points_within(side, reference, dominant, 1.0)
+}
+
+/// [`starting_points`] for a recording `duration_s` long.
+pub fn starting_points_within(
+    side: &ModalSide,
+    reference: &[DampedMode],
+    dominant: usize,
+    duration_s: f64,
+) -> Vec<RayleighParams> {
     // Dominance is perceptual: the feature weight (loudness × duration). Raw energy would
     // crown the strike's click, a loud, near-Nyquist burst of a few milliseconds.
     let mut by_energy: Vec<&DampedMode> = reference.iter().collect();
-    let energy = |m: &DampedMode| FeaturePoint::of(m).weight;
+    let energy = |m: &DampedMode| FeaturePoint::within(m, duration_s).weight;
     by_energy.sort_by(|a, b| energy(b).total_cmp(&energy(a)));
     by_energy.truncate(dominant.max(2));
     let Some(top) = by_energy.first().copied() else {
@@ -297,32 +314,53 @@ pub fn starting_points(
             circles.push((2.0 * top.damping_per_s * (1.0 - share), beta));
         }
     }
+    // Put eigenvalue λ⁰ (gain g⁰) on reference mode `target` for damping (α, β):
+    // ω_d² = λ − d², d = (α + βλ)/2, solved for λ by a few fixed-point steps from λ = ω².
+    let align = |alpha: f64, beta: f64, target: &DampedMode, l0: f64, g0: f64| {
+        let w2 = (TAU * target.freq_hz).powi(2);
+        let mut lambda = w2;
+        for _ in 0..20 {
+            let d = 0.5 * (alpha + beta * lambda);
+            lambda = w2 + d * d;
+        }
+        let p = RayleighParams {
+            alpha,
+            beta,
+            gamma: side.gamma0 * lambda / l0,
+            sigma: target.amplitude / g0,
+        };
+        p.is_valid().then_some(p)
+    };
     let mut out = Vec::new();
     for &(alpha, beta) in &circles {
-        {
-            for &(l0, g0) in &pareto {
-                // Put this mode on the top reference mode: ω_d² = λ − d², d = (α + βλ)/2,
-                // solved for λ by a few fixed-point steps from λ = ω².
-                let w2 = (TAU * top.freq_hz).powi(2);
-                let mut lambda = w2;
-                for _ in 0..20 {
-                    let d = 0.5 * (alpha + beta * lambda);
-                    lambda = w2 + d * d;
-                }
-                let p = RayleighParams {
-                    alpha,
-                    beta,
-                    gamma: side.gamma0 * lambda / l0,
-                    sigma: top.amplitude / g0,
-                };
-                if p.is_valid() {
-                    out.push(p);
-                }
+        for &(l0, g0) in &pareto {
+            out.extend(align(alpha, beta, top, l0, g0));
+        }
+    }
+    // Real objects rarely match their mesh mode for mode: also try the next dominant reference
+    // modes against the first audible eigenvalues, on the first circle. `estimate` keeps the
+    // most promising starts.
+    let loudest = side.gains0.iter().fold(0.0f64, |m, g| m.max(g.abs()));
+    let first: Vec<(f64, f64)> = side
+        .eigenvalues0
+        .iter()
+        .zip(&side.gains0)
+        .filter(|(&l, &g)| l > 0.0 && g.abs() > 1e-2 * loudest)
+        .take(5)
+        .map(|(&l, &g)| (l, g.abs()))
+        .collect();
+    if let Some(&(alpha, beta)) = circles.first() {
+        for target in by_energy.iter().take(3) {
+            for &(l0, g0) in &first {
+                out.extend(align(alpha, beta, target, l0, g0));
             }
         }
     }
     out
 }
+
+/// Starts kept for Nelder–Mead: the rest are judged hopeless by their metric at the start.
+pub const MAX_STARTS: usize = 12;
 
 /// Estimates {α, β, γ, σ} from an onset-aligned recording `signal`, its analysed modes and the
 /// object's modal side.
@@ -353,9 +391,24 @@ pub fn estimate(
         params.floor_db,
         params.route,
     )?;
-    let starts = starting_points(side, reference_modes, params.dominant);
+    let starts = starting_points_within(
+        side,
+        reference_modes,
+        params.dominant,
+        signal.len() as f64 / sample_rate_hz,
+    );
     if starts.is_empty() {
         return Err(EstimateError::NoStart);
+    }
+    // Prune hopeless starts: one metric evaluation each, keep the best.
+    let mut starts = starts;
+    if starts.len() > MAX_STARTS {
+        let mut scored: Vec<(f64, RayleighParams)> = starts
+            .par_iter()
+            .map(|p| (objective.hybrid(p), *p))
+            .collect();
+        scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+        starts = scored.into_iter().take(MAX_STARTS).map(|(_, p)| p).collect();
     }
     let results: Vec<(RayleighParams, f64, usize)> = starts
         .par_iter()

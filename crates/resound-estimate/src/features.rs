@@ -45,7 +45,13 @@ pub fn sine_sone(freq_hz: f64, amplitude: f64) -> f64 {
 impl FeaturePoint {
     /// The point of `mode`.
     pub fn of(mode: &DampedMode) -> Self {
-        let duration = (1.0 / mode.damping_per_s.max(1e-6)).min(1.0);
+        Self::within(mode, 1.0)
+    }
+
+    /// The point of `mode` heard for at most `max_duration_s` (the recording's length: a mode
+    /// that barely decays within a short recording must not outweigh the rest).
+    pub fn within(mode: &DampedMode, max_duration_s: f64) -> Self {
+        let duration = (1.0 / mode.damping_per_s.max(1e-6)).min(max_duration_s.clamp(1e-3, 1.0));
         Self {
             x: bark(mode.freq_hz) / 0.5,
             y: 20.0 / mode.damping_per_s.max(1e-6),

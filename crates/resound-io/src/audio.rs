@@ -207,6 +207,30 @@ pub fn write_wav(
     sample_rate_hz: u32,
     format: WavFormat,
 ) -> Result<()> {
+    write_wav_channels(path, &[samples], sample_rate_hz, format)
+}
+
+/// Writes equally long `channels` (interleaved in the file) as a WAV file, atomically.
+///
+/// # Errors
+/// As [`write_wav`]; also for no channels or channels of different lengths.
+pub fn write_wav_channels(
+    path: &Path,
+    channels: &[&[f32]],
+    sample_rate_hz: u32,
+    format: WavFormat,
+) -> Result<()> {
+    let Some(first) = channels.first() else {
+        return Err(parse_err(path, "no channels to write"));
+    };
+    if channels.len() > 16 || channels.iter().any(|c| c.len() != first.len()) {
+        return Err(parse_err(path, "channels must be 1–16 of equal length"));
+    }
+    let frames = first.len();
+    let samples: Vec<f32> = (0..frames)
+        .flat_map(|i| channels.iter().map(move |c| c[i]))
+        .collect();
+    let samples = &samples[..];
     if sample_rate_hz == 0 {
         return Err(parse_err(path, "sample rate must be positive"));
     }
@@ -222,7 +246,7 @@ pub fn write_wav(
         WavFormat::Float32 => (32, hound::SampleFormat::Float),
     };
     let spec = hound::WavSpec {
-        channels: 1,
+        channels: channels.len() as u16,
         sample_rate: sample_rate_hz,
         bits_per_sample: bits,
         sample_format: fmt,

@@ -18,10 +18,11 @@ pub mod library;
 pub mod mesh;
 pub mod model_file;
 pub mod mtx;
+pub mod scene;
 mod ply;
 mod tetfile;
 
-pub use audio::{load_audio, write_wav, AudioClip, WavFormat};
+pub use audio::{load_audio, write_wav, write_wav_channels, AudioClip, WavFormat};
 pub use mesh::{load_mesh, save_surface, LoadedMesh};
 
 use std::path::PathBuf;

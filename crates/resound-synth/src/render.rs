@@ -4,6 +4,12 @@ use crate::bank::{BankMode, ModalBank};
 use crate::SynthError;
 use resound_core::DampedMode;
 
+/// The impulse of the reference impact a material's σ is calibrated to: a 5 mm steel ball
+/// (4.11 g) meeting an immovable object at 1 m/s, J = 2mv. A material's modes at σ·a⁰ sound at
+/// the recording's level for this impact; other impacts scale with their impulse.
+pub const REFERENCE_IMPULSE_N_S: f64 =
+    2.0 * 4.0 / 3.0 * std::f64::consts::PI * 0.005 * 0.005 * 0.005 * 7850.0;
+
 /// Bank modes from damped sinusoids given per unit impulse (`amplitude` with `phase_rad` 0 or
 /// π as the sign, as [`resound_core::SoundMaterial::modes`] returns them). Other phases are
 /// projected onto the sine (a struck object at rest starts each mode as a sine).

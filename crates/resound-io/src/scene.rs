@@ -1,0 +1,425 @@
+//! Scene files (TOML): bodies, their shapes and materials, the listener, the run's settings.
+//!
+//! ```toml
+//! # A steel ball dropped on a wooden table, heard from 60 cm.
+//! duration = 3.0            # s
+//! sample_rate = 48000       # Hz
+//! seed = 1                  # surface textures
+//! stereo = true
+//!
+//! [listener]
+//! position = [0.0, 0.3, 0.6]   # m (y is up)
+//!
+//! [[body]]
+//! name = "table"
+//! fixed = true                 # does not move (floor, table); still sounds
+//! shape = { box = [1.0, 0.04, 0.6] }   # full sizes, m
+//! material = "preset:wood"     # a library name, a material file (.json), or preset:NAME
+//! density = 700                # kg/m³
+//! position = [0.0, -0.02, 0.0] # m
+//!
+//! [[body]]
+//! name = "ball"
+//! shape = { sphere = 0.02 }    # radius, m
+//! material = "preset:steel"
+//! density = 7850
+//! position = [0.0, 0.3, 0.0]
+//! velocity = [0.0, 0.0, 0.0]          # m/s
+//! angular_velocity = [0.0, 0.0, 0.0]  # rad/s
+//! restitution = 0.6
+//! friction = 0.4
+//! modes = 24                   # modes of its modal model
+//! ```
+//!
+//! Shapes: `box = [x, y, z]`, `plate = [x, y, thickness]` (full sizes), `sphere = r`,
+//! `cylinder = [r, height]` (along z), `bowl = [r, thickness]` or `[r, thickness, depth]`,
+//! `mesh = "file.obj"` (relative to the scene file; `scale` multiplies its coordinates).
+//! `rotation` is a rotation vector in degrees (axis × angle). Errors name the line and the
+//! field.
+
+use serde::Deserialize;
+use std::path::Path;
+
+/// A parsed, validated scene file.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Length of the rendering, s.
+    #[serde(default = "default_duration")]
+    pub duration: f64,
+    /// Output sample rate, Hz.
+    #[serde(default = "default_rate")]
+    pub sample_rate: u32,
+    /// Seed of the surface textures.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Stereo output.
+    #[serde(default = "default_true")]
+    pub stereo: bool,
+    /// Physics steps per second.
+    #[serde(default = "default_steps")]
+    pub steps_per_second: f64,
+    /// Gravity, m/s².
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    /// The listener.
+    #[serde(default)]
+    pub listener: Listener,
+    /// The bodies.
+    pub body: Vec<toml::Spanned<BodyFile>>,
+}
+
+/// Where the listener is.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Listener {
+    /// Position, m.
+    pub position: [f64; 3],
+}
+
+impl Default for Listener {
+    fn default() -> Self {
+        Self {
+            position: [0.0, 0.5, 1.0],
+        }
+    }
+}
+
+/// A body's shape.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(rename_all = "lowercase")]
+pub enum ShapeFile {
+    /// Box, full sizes.
+    Box([f64; 3]),
+    /// Plate, full sizes (x, y, thickness along z).
+    Plate([f64; 3]),
+    /// Sphere radius.
+    Sphere(f64),
+    /// Cylinder radius and height (along z).
+    Cylinder([f64; 2]),
+    /// Bowl radius, thickness (, depth).
+    Bowl(Vec<f64>),
+    /// Mesh file.
+    Mesh(String),
+}
+
+/// One body.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct BodyFile {
+    /// Unique name.
+    pub name: String,
+    /// Shape.
+    pub shape: ShapeFile,
+    /// Material: library name, material file, or `preset:NAME`.
+    pub material: String,
+    /// Density, kg/m³.
+    pub density: f64,
+    /// Immovable.
+    #[serde(default)]
+    pub fixed: bool,
+    /// Position, m.
+    #[serde(default)]
+    pub position: [f64; 3],
+    /// Rotation vector, degrees.
+    #[serde(default)]
+    pub rotation: [f64; 3],
+    /// Linear velocity, m/s.
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    /// Angular velocity, rad/s.
+    #[serde(default)]
+    pub angular_velocity: [f64; 3],
+    /// Restitution.
+    #[serde(default = "default_restitution")]
+    pub restitution: f64,
+    /// Friction.
+    #[serde(default = "default_friction")]
+    pub friction: f64,
+    /// Modes of the modal model.
+    #[serde(default = "default_modes")]
+    pub modes: usize,
+    /// Voxels along the longest side (0: automatic).
+    #[serde(default)]
+    pub resolution: usize,
+    /// Poisson's ratio of the modal model.
+    #[serde(default = "default_poisson")]
+    pub poisson: f64,
+    /// Mesh coordinate scale.
+    #[serde(default = "default_scale")]
+    pub scale: f64,
+    /// Whether the body sounds.
+    #[serde(default = "default_true")]
+    pub sound: bool,
+}
+
+fn default_duration() -> f64 {
+    3.0
+}
+fn default_rate() -> u32 {
+    48_000
+}
+fn default_seed() -> u64 {
+    1
+}
+fn default_true() -> bool {
+    true
+}
+fn default_steps() -> f64 {
+    240.0
+}
+fn default_gravity() -> [f64; 3] {
+    [0.0, -9.81, 0.0]
+}
+fn default_restitution() -> f64 {
+    0.5
+}
+fn default_friction() -> f64 {
+    0.5
+}
+fn default_modes() -> usize {
+    32
+}
+fn default_poisson() -> f64 {
+    0.3
+}
+fn default_scale() -> f64 {
+    1.0
+}
+
+/// A scene file that cannot be used.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SceneFileError {
+    /// Unreadable file.
+    #[error("{path}: {message}")]
+    Io {
+        /// File.
+        path: String,
+        /// Why.
+        message: String,
+    },
+    /// TOML syntax or a field of the wrong type, missing or unknown (the message names the
+    /// line, the column and the field).
+    #[error("{path}: {message}")]
+    Parse {
+        /// File.
+        path: String,
+        /// toml's message.
+        message: String,
+    },
+    /// A value out of range.
+    #[error("{path}, line {line}: {field}: {message}")]
+    Invalid {
+        /// File.
+        path: String,
+        /// Line (1-based).
+        line: usize,
+        /// Field (`body "ball".density`).
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// Reads and validates a scene file.
+pub fn read_scene(path: &Path) -> Result<SceneFile, SceneFileError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SceneFileError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    parse_scene(&text, &path.display().to_string())
+}
+
+/// Parses and validates scene text; `path` names it in messages.
+pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> {
+    let scene: SceneFile = toml::from_str(text).map_err(|e| SceneFileError::Parse {
+        path: path.to_string(),
+        message: e.to_string().trim_end().replace('\n', " | "),
+    })?;
+    let line_of = |offset: usize| text[..offset.min(text.len())].matches('\n').count() + 1;
+    let line_of_key = |key: &str| {
+        text.lines()
+            .position(|l| l.trim_start().starts_with(key))
+            .map_or(1, |i| i + 1)
+    };
+    let invalid = |line: usize, field: String, message: String| SceneFileError::Invalid {
+        path: path.to_string(),
+        line,
+        field,
+        message,
+    };
+    if !(scene.duration > 0.0 && scene.duration <= 3600.0) {
+        return Err(invalid(
+            line_of_key("duration"),
+            "duration".into(),
+            format!("must be in (0, 3600] s, got {}", scene.duration),
+        ));
+    }
+    if !(8000..=192_000).contains(&scene.sample_rate) {
+        return Err(invalid(
+            line_of_key("sample_rate"),
+            "sample_rate".into(),
+            format!("must be within 8000–192000 Hz, got {}", scene.sample_rate),
+        ));
+    }
+    if !(30.0..=4000.0).contains(&scene.steps_per_second) {
+        return Err(invalid(
+            line_of_key("steps_per_second"),
+            "steps_per_second".into(),
+            format!("must be within 30–4000, got {}", scene.steps_per_second),
+        ));
+    }
+    if !scene
+        .listener
+        .position
+        .iter()
+        .chain(&scene.gravity)
+        .all(|v| v.is_finite())
+    {
+        return Err(invalid(
+            line_of_key("position"),
+            "listener.position".into(),
+            "must be finite".into(),
+        ));
+    }
+    if scene.body.is_empty() {
+        return Err(invalid(1, "body".into(), "the scene has no bodies".into()));
+    }
+    let mut names = std::collections::HashSet::new();
+    let starts: Vec<usize> = scene.body.iter().map(|b| b.span().start).collect();
+    for (bi, spanned) in scene.body.iter().enumerate() {
+        // This body's text: from its table to the next body's (toml spans only the header).
+        let span = spanned.span().start..starts.get(bi + 1).copied().unwrap_or(text.len());
+        let body_line = line_of(span.start);
+        let b = spanned.get_ref();
+        // The line of `key = …` within this body's table, else the table's first line.
+        let key_line = |key: &str| {
+            let region = &text[span.start.min(text.len())..span.end.min(text.len())];
+            let mut offset = span.start;
+            for l in region.split_inclusive('\n') {
+                let t = l.trim_start();
+                if t.strip_prefix(key)
+                    .is_some_and(|rest| rest.trim_start().starts_with('='))
+                {
+                    return line_of(offset);
+                }
+                offset += l.len();
+            }
+            body_line
+        };
+        let field = |f: &str| format!("body {:?}.{f}", b.name);
+        let line = body_line;
+        if b.name.trim().is_empty() || !names.insert(b.name.clone()) {
+            return Err(invalid(
+                line,
+                "body.name".into(),
+                format!("names must be non-empty and unique, got {:?}", b.name),
+            ));
+        }
+        if !(b.density.is_finite() && b.density > 0.0) {
+            return Err(invalid(key_line("density"), field("density"), format!("must be > 0 kg/m³, got {}", b.density)));
+        }
+        if !(0.0..=1.0).contains(&b.restitution) {
+            return Err(invalid(key_line("restitution"), field("restitution"), format!("must be in [0, 1], got {}", b.restitution)));
+        }
+        if !(b.friction.is_finite() && b.friction >= 0.0) {
+            return Err(invalid(key_line("friction"), field("friction"), format!("must be ≥ 0, got {}", b.friction)));
+        }
+        if !(1..=500).contains(&b.modes) {
+            return Err(invalid(key_line("modes"), field("modes"), format!("must be in 1..=500, got {}", b.modes)));
+        }
+        if !(b.poisson > 0.0 && b.poisson < 0.5) {
+            return Err(invalid(key_line("poisson"), field("poisson"), format!("must be in (0, 0.5), got {}", b.poisson)));
+        }
+        if !(b.scale.is_finite() && b.scale > 0.0) {
+            return Err(invalid(key_line("scale"), field("scale"), format!("must be > 0, got {}", b.scale)));
+        }
+        if b.material.trim().is_empty() {
+            return Err(invalid(key_line("material"), field("material"), "must name a material".into()));
+        }
+        let vectors = [
+            ("position", b.position),
+            ("rotation", b.rotation),
+            ("velocity", b.velocity),
+            ("angular_velocity", b.angular_velocity),
+        ];
+        if let Some((name, _)) = vectors.iter().find(|(_, v)| !v.iter().all(|x| x.is_finite())) {
+            return Err(invalid(key_line(name), field(name), "must be finite".into()));
+        }
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        let shape_ok = match &b.shape {
+            ShapeFile::Box(s) | ShapeFile::Plate(s) => s.iter().all(|&v| pos(v)),
+            ShapeFile::Sphere(r) => pos(*r),
+            ShapeFile::Cylinder(s) => s.iter().all(|&v| pos(v)),
+            ShapeFile::Bowl(s) => (2..=3).contains(&s.len()) && s.iter().all(|&v| pos(v)),
+            ShapeFile::Mesh(p) => !p.trim().is_empty(),
+        };
+        if !shape_ok {
+            return Err(invalid(
+                key_line("shape"),
+                field("shape"),
+                format!("sizes must be positive (bowl: 2 or 3 values), got {:?}", b.shape),
+            ));
+        }
+    }
+    Ok(scene)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+duration = 2.0
+[listener]
+position = [0, 0.3, 0.6]
+
+[[body]]
+name = "table"
+fixed = true
+shape = { box = [1.0, 0.04, 0.6] }
+material = "preset:wood"
+density = 700
+
+[[body]]
+name = "ball"
+shape = { sphere = 0.02 }
+material = "preset:steel"
+density = 7850
+position = [0, 0.3, 0]
+"#;
+
+    #[test]
+    fn a_good_scene_parses_with_defaults() {
+        let s = parse_scene(GOOD, "s.toml").unwrap();
+        assert_eq!(s.body.len(), 2);
+        let ball = s.body[1].get_ref();
+        assert_eq!(ball.shape, ShapeFile::Sphere(0.02));
+        assert_eq!((ball.modes, ball.restitution, s.sample_rate), (32, 0.5, 48_000));
+    }
+
+    #[test]
+    fn errors_name_the_line_and_the_field() {
+        // A missing field: toml names it and the line.
+        let e = parse_scene(&GOOD.replace("density = 7850\n", ""), "s.toml").unwrap_err().to_string();
+        assert!(e.contains("density") && e.contains("line"), "{e}");
+        // A misspelt field.
+        let e = parse_scene(&GOOD.replace("density = 7850", "densty = 7850"), "s.toml").unwrap_err().to_string();
+        assert!(e.contains("densty") && e.contains("line"), "{e}");
+        // A value out of range: the body's line and the field.
+        let e = parse_scene(&GOOD.replace("density = 7850", "density = -3"), "s.toml").unwrap_err();
+        match &e {
+            SceneFileError::Invalid { line, field, .. } => {
+                assert_eq!(*line, 17, "{e}");
+                assert_eq!(field, "body \"ball\".density");
+            }
+            other => panic!("{other:?}"),
+        }
+        // Wrong type and bad syntax.
+        let e = parse_scene(&GOOD.replace("duration = 2.0", "duration = \"long\""), "s.toml").unwrap_err().to_string();
+        assert!(e.contains("duration") && e.contains("line 2"), "{e}");
+        assert!(parse_scene("[[body]\nname=", "s.toml").is_err());
+        let e = parse_scene(&GOOD.replace("sphere = 0.02", "sphere = 0"), "s.toml").unwrap_err().to_string();
+        assert!(e.contains("shape"), "{e}");
+    }
+}
