@@ -8,6 +8,7 @@ use std::process::ExitCode;
 
 mod analyze_cmd;
 mod bench;
+mod demo_cmd;
 mod estimate_cmd;
 mod live;
 mod mesh_cmd;
@@ -32,6 +33,8 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Run the whole pipeline on bundled data: estimate a material from a real recording, render a physics scene (demo-out/).
+    Demo(demo_cmd::DemoArgs),
     /// Compute an object's vibration modes from a closed surface or tet mesh and a material (FEM + eigen-solve).
     Modal(modal_cmd::ModalArgs),
     /// Make, inspect and check meshes (primitives, repair report).
@@ -61,6 +64,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Demo(a) => demo_cmd::run(a),
         Command::Modal(a) => modal_cmd::run(a),
         Command::Mesh(c) => mesh_cmd::run(c),
         Command::Model(a) => modal_cmd::run_info(a),

@@ -75,13 +75,44 @@ fn image_png(pixels: &[u8], w: u32, h: u32) -> Result<Vec<u8>> {
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
 
+/// Spectrogram of a signal (the first of `channels`), written atomically to `path`.
+pub fn spectrogram_png(path: &Path, x: &[f64], sample_rate_hz: f64, title: &str) -> Result<()> {
+    register_font();
+    let (w, h) = (1000u32, 560u32);
+    let mut pixels = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
+        draw_spectrogram_of(&root, x, sample_rate_hz, &[], title, Some(x.len() as f64 / sample_rate_hz))
+            .map_err(|e| anyhow!("plot: {e}"))?;
+        root.present().map_err(|e| anyhow!("plot: {e}"))?;
+    }
+    let img = image_png(&pixels, w, h)?;
+    write_atomic(path, |out| out.write_all(&img))?;
+    Ok(())
+}
+
 fn draw_spectrogram(
     area: &Area<'_>,
     seg: &[f64],
     res: &Analysis,
     title: &str,
 ) -> std::result::Result<(), Box<dyn std::error::Error>> {
-    let fs = res.sample_rate_hz;
+    draw_spectrogram_of(area, seg, res.sample_rate_hz, &res.modes, title, None)
+}
+
+fn draw_spectrogram_of(
+    area: &Area<'_>,
+    seg: &[f64],
+    fs: f64,
+    modes: &[DampedMode],
+    title: &str,
+    span_s: Option<f64>,
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    struct Res<'a> {
+        modes: &'a [DampedMode],
+    }
+    let res = Res { modes };
     let window = if seg.len() >= 4096 {
         2048
     } else {
@@ -90,23 +121,30 @@ fn draw_spectrogram(
     let Some(spec) = Spectrogram::compute(seg, fs, window) else {
         return Ok(());
     };
-    let f_top = res
-        .modes
-        .iter()
-        .map(|m| m.freq_hz)
-        .fold(0.0, f64::max)
-        .mul_add(1.25, 200.0)
-        .min(0.5 * fs);
+    let f_top = if res.modes.is_empty() {
+        0.5 * fs
+    } else {
+        res.modes
+            .iter()
+            .map(|m| m.freq_hz)
+            .fold(0.0, f64::max)
+            .mul_add(1.25, 200.0)
+            .min(0.5 * fs)
+    };
     // Show until the longest-ringing mode has decayed by 60 dB (at least 0.1 s).
     let t60_max = res
         .modes
         .iter()
         .map(|m| 3.0 * std::f64::consts::LN_10 / m.damping_per_s)
         .fold(0.1, f64::max);
-    let t_end = (seg.len() as f64 / fs).min(1.1 * t60_max);
+    let t_end = span_s.unwrap_or((seg.len() as f64 / fs).min(1.1 * t60_max));
     let mut chart = ChartBuilder::on(area)
         .caption(
-            format!("{title}: spectrogram, modes marked"),
+            if res.modes.is_empty() {
+                format!("{title}: spectrogram")
+            } else {
+                format!("{title}: spectrogram, modes marked")
+            },
             ("sans-serif", 18),
         )
         .margin(10)
