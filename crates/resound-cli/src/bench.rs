@@ -30,6 +30,27 @@ pub enum BenchCmd {
     /// against a plain scalar loop, and residual transfer latency (1 s residual, 10 fast
     /// Griffin–Lim iterations).
     Synth(SynthBenchArgs),
+    /// Scenes: 10 and 100 bodies (steel balls, ceramic boxes, wooden cylinders) dropped into a
+    /// wooden box, 10 s of stereo audio: real-time factor of physics + sound, peak memory,
+    /// voices alive. Each case runs `resound scene` in a child process.
+    Scene(SceneBenchArgs),
+}
+
+/// Arguments of `bench scene`.
+#[derive(Args, Debug)]
+pub struct SceneBenchArgs {
+    /// JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Body counts.
+    #[arg(long, default_value = "10,100")]
+    pub bodies: String,
+    /// Seconds of audio.
+    #[arg(long, default_value_t = 10.0)]
+    pub seconds: f64,
+    /// Keep the scene files, library, cache and WAVs in this directory (default: a temporary one).
+    #[arg(long)]
+    pub dir: Option<std::path::PathBuf>,
 }
 
 /// Arguments of `bench synth`.
@@ -254,6 +275,7 @@ pub fn run(c: BenchCmd) -> Result<()> {
         BenchCmd::Analyze(a) => return run_analyze(a),
         BenchCmd::Estimate(a) => return run_estimate(a),
         BenchCmd::Synth(a) => return run_synth(a),
+        BenchCmd::Scene(a) => return run_scene(a),
     };
     let exe = std::env::current_exe().context("locating the resound binary")?;
     let dofs: Vec<usize> = crate::util::parse_list(&a.dofs)?
@@ -548,6 +570,127 @@ fn run_synth(a: SynthBenchArgs) -> Result<()> {
             pct(0.5),
             pct(0.99)
         );
+    }
+    Ok(())
+}
+
+/// A scene of `n` bodies dropped into a 1 m wooden box.
+pub fn box_scene(n: usize, seconds: f64) -> String {
+    let mut t = format!("duration = {seconds}\nseed = 3\n[listener]\nposition = [0.0, 0.5, 1.2]\n");
+    let wall = |t: &mut String, name: &str, size: [f64; 3], pos: [f64; 3]| {
+        t.push_str(&format!(
+            "[[body]]\nname = \"{name}\"\nfixed = true\nshape = {{ box = [{}, {}, {}] }}\nmaterial = \"preset:wood\"\ndensity = 700\nposition = [{}, {}, {}]\nmodes = 24\n",
+            size[0], size[1], size[2], pos[0], pos[1], pos[2]
+        ));
+    };
+    wall(&mut t, "floor", [1.0, 0.04, 1.0], [0.0, -0.02, 0.0]);
+    wall(&mut t, "wall-x0", [0.04, 0.4, 1.0], [-0.52, 0.2, 0.0]);
+    wall(&mut t, "wall-x1", [0.04, 0.4, 1.0], [0.52, 0.2, 0.0]);
+    wall(&mut t, "wall-z0", [1.0, 0.4, 0.04], [0.0, 0.2, -0.52]);
+    wall(&mut t, "wall-z1", [1.0, 0.4, 0.04], [0.0, 0.2, 0.52]);
+    let per_layer = 25;
+    for i in 0..n {
+        let layer = i / per_layer;
+        let k = i % per_layer;
+        let (x, z) = (-0.36 + 0.18 * (k % 5) as f64, -0.36 + 0.18 * (k / 5) as f64);
+        let y = 0.15 + 0.12 * layer as f64;
+        let (shape, material, density) = match i % 3 {
+            0 => (
+                format!("{{ sphere = {} }}", 0.02 + 0.005 * (i % 2) as f64),
+                "preset:steel",
+                7850,
+            ),
+            1 => (
+                "{ box = [0.05, 0.03, 0.04] }".to_string(),
+                "preset:ceramic",
+                2400,
+            ),
+            _ => (
+                "{ cylinder = [0.025, 0.06] }".to_string(),
+                "preset:wood",
+                700,
+            ),
+        };
+        let v = [
+            0.3 * ((i * 7 % 5) as f64 - 2.0) / 2.0,
+            0.0,
+            0.3 * ((i * 3 % 5) as f64 - 2.0) / 2.0,
+        ];
+        t.push_str(&format!(
+            "[[body]]\nname = \"b{i}\"\nshape = {shape}\nmaterial = \"{material}\"\ndensity = {density}\nposition = [{x}, {y}, {z}]\nvelocity = [{}, 0.0, {}]\nrotation = [{}, {}, 0.0]\nmodes = 16\n",
+            v[0], v[2], (i * 37 % 90) as f64, (i * 53 % 90) as f64
+        ));
+    }
+    t
+}
+
+fn run_scene(a: SceneBenchArgs) -> Result<()> {
+    let exe = std::env::current_exe().context("locating the resound binary")?;
+    let tmp = tempfile::tempdir()?;
+    let base = match &a.dir {
+        Some(d) => {
+            std::fs::create_dir_all(d)?;
+            d.clone()
+        }
+        None => tmp.path().to_path_buf(),
+    };
+    let dir = &base;
+    let counts: Vec<usize> = crate::util::parse_list(&a.bodies)?
+        .iter()
+        .map(|&v| v as usize)
+        .collect();
+    if counts.is_empty() || counts.iter().any(|&c| c == 0 || c > 2000) || !(a.seconds > 0.0) {
+        bail!("--bodies must list counts in 1..=2000 and --seconds must be > 0");
+    }
+    let mut out = serde_json::Map::new();
+    out.insert("benchmark".into(), json!("scene"));
+    out.insert("seconds".into(), json!(a.seconds));
+    let mut cases = Vec::new();
+    let mut peak = 0.0f64;
+    for &n in &counts {
+        let scene = dir.join(format!("box{n}.toml"));
+        std::fs::write(&scene, box_scene(n, a.seconds))?;
+        if !a.json {
+            eprintln!("bench scene: {n} bodies, {} s ...", a.seconds);
+        }
+        let o = Command::new(&exe)
+            .args(["scene", "--json", "--library"])
+            .arg(dir.join("lib.sqlite"))
+            .arg("--cache")
+            .arg(dir.join("cache"))
+            .arg("-o")
+            .arg(dir.join(format!("box{n}.wav")))
+            .arg(&scene)
+            .output()
+            .context("running resound scene")?;
+        if !o.status.success() {
+            bail!(
+                "scene with {n} bodies failed: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        let v: Value = serde_json::from_slice(&o.stdout).context("parsing the scene summary")?;
+        let rtf = v["realtime_factor"].as_f64().unwrap_or(0.0);
+        let rss = v["peak_rss_mb"].as_f64().unwrap_or(0.0);
+        peak = peak.max(rss);
+        out.insert(format!("realtime_factor_{n}"), json!(rtf));
+        if !a.json {
+            println!(
+                "{n:>4} bodies: {rtf:>6.1}x real time (physics {:.2} s, sound {:.2} s for {} s), {} impacts, {} voices at most, build {:.1} s, peak {rss:.0} MB",
+                v["physics_s"].as_f64().unwrap_or(0.0),
+                v["audio_s"].as_f64().unwrap_or(0.0),
+                a.seconds,
+                v["impacts"],
+                v["max_voices"],
+                v["build_s"].as_f64().unwrap_or(0.0),
+            );
+        }
+        cases.push(json!({"bodies": n, "summary": v}));
+    }
+    out.insert("peak_rss_mb".into(), json!(peak));
+    out.insert("cases".into(), json!(cases));
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&Value::Object(out))?);
     }
     Ok(())
 }

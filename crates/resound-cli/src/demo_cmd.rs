@@ -165,7 +165,11 @@ pub fn run(a: DemoArgs) -> Result<()> {
         json: false,
         play: false,
     })?;
-    step("synthesized one strike of the material on the plate (modes + residual)", t, &mut log);
+    step(
+        "synthesized one strike of the material on the plate (modes + residual)",
+        t,
+        &mut log,
+    );
 
     // 5. The scene.
     let t = Instant::now();
@@ -207,7 +211,11 @@ pub fn run(a: DemoArgs) -> Result<()> {
     )?;
     step("drew scene.png", t, &mut log);
     let mut text = String::new();
-    let _ = writeln!(text, "Resound demo ({:.1} s in all)\n", total.elapsed().as_secs_f64());
+    let _ = writeln!(
+        text,
+        "Resound demo ({:.1} s in all)\n",
+        total.elapsed().as_secs_f64()
+    );
     text.push_str(&log);
     let _ = writeln!(
         text,

@@ -158,9 +158,10 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     }
     seg.truncate(analysis.samples);
     let ep = EstimateParams::default();
-    let n_starts = starting_points_within(&side, &analysis.modes, ep.dominant, seg.len() as f64 / fs)
-        .len()
-        .min(resound::estimate::estimate::MAX_STARTS);
+    let n_starts =
+        starting_points_within(&side, &analysis.modes, ep.dominant, seg.len() as f64 / fs)
+            .len()
+            .min(resound::estimate::estimate::MAX_STARTS);
     let pb = ProgressBar::new(n_starts as u64);
     pb.set_style(
         ProgressStyle::with_template("{prefix} [{elapsed}] {bar:30} {pos}/{len} starts")

@@ -83,8 +83,15 @@ pub fn spectrogram_png(path: &Path, x: &[f64], sample_rate_hz: f64, title: &str)
     {
         let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
-        draw_spectrogram_of(&root, x, sample_rate_hz, &[], title, Some(x.len() as f64 / sample_rate_hz))
-            .map_err(|e| anyhow!("plot: {e}"))?;
+        draw_spectrogram_of(
+            &root,
+            x,
+            sample_rate_hz,
+            &[],
+            title,
+            Some(x.len() as f64 / sample_rate_hz),
+        )
+        .map_err(|e| anyhow!("plot: {e}"))?;
         root.present().map_err(|e| anyhow!("plot: {e}"))?;
     }
     let img = image_png(&pixels, w, h)?;

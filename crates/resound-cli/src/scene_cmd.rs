@@ -101,10 +101,9 @@ pub fn render_scene(a: &SceneArgs) -> Result<serde_json::Value> {
     );
     pb.set_prefix("scene");
     let t1 = std::time::Instant::now();
-    let mut out = resound::physics::simulate(&bodies, &params, &|f| {
-        pb.set_position((f * 1000.0) as u64)
-    })
-    .with_context(|| format!("simulating {}", a.scene.display()))?;
+    let mut out =
+        resound::physics::simulate(&bodies, &params, &|f| pb.set_position((f * 1000.0) as u64))
+            .with_context(|| format!("simulating {}", a.scene.display()))?;
     pb.finish_and_clear();
     let sim_s = t1.elapsed().as_secs_f64();
     // One gain for all channels: keep the image, never clip.
@@ -123,12 +122,20 @@ pub fn render_scene(a: &SceneArgs) -> Result<serde_json::Value> {
         out.channels
             .iter_mut()
             .for_each(|c| c.iter_mut().for_each(|v| *v *= g));
-        eprintln!("note: peak {peak:.2} of full scale; turned down by {:.1} dB (no clipping)", -gain_db);
+        eprintln!(
+            "note: peak {peak:.2} of full scale; turned down by {:.1} dB (no clipping)",
+            -gain_db
+        );
     } else if peak == 0.0 {
         eprintln!("note: the scene is silent (no sounding contacts)");
     }
     let refs: Vec<&[f32]> = out.channels.iter().map(|c| c.as_slice()).collect();
-    write_wav_channels(&a.output, &refs, params.sample_rate_hz as u32, WavFormat::Pcm24)?;
+    write_wav_channels(
+        &a.output,
+        &refs,
+        params.sample_rate_hz as u32,
+        WavFormat::Pcm24,
+    )?;
     if let Some(p) = &a.events {
         let mut text = String::new();
         for e in &out.events {
@@ -170,5 +177,19 @@ pub fn render_scene(a: &SceneArgs) -> Result<serde_json::Value> {
         "peak": peak,
         "gain_db": gain_db,
         "events": out.events.len(),
+        "peak_rss_mb": peak_rss_mb(),
     }))
+}
+
+/// This process's peak resident memory (VmHWM), MB; 0 where /proc is unavailable.
+fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+        })
+        .map_or(0.0, |kb| kb / 1024.0)
 }

@@ -408,7 +408,11 @@ pub fn estimate(
             .map(|p| (objective.hybrid(p), *p))
             .collect();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-        starts = scored.into_iter().take(MAX_STARTS).map(|(_, p)| p).collect();
+        starts = scored
+            .into_iter()
+            .take(MAX_STARTS)
+            .map(|(_, p)| p)
+            .collect();
     }
     let results: Vec<(RayleighParams, f64, usize)> = starts
         .par_iter()

@@ -18,8 +18,8 @@ pub mod library;
 pub mod mesh;
 pub mod model_file;
 pub mod mtx;
-pub mod scene;
 mod ply;
+pub mod scene;
 mod tetfile;
 
 pub use audio::{load_audio, write_wav, write_wav_channels, AudioClip, WavFormat};

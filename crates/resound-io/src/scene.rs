@@ -317,25 +317,53 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
             ));
         }
         if !(b.density.is_finite() && b.density > 0.0) {
-            return Err(invalid(key_line("density"), field("density"), format!("must be > 0 kg/m³, got {}", b.density)));
+            return Err(invalid(
+                key_line("density"),
+                field("density"),
+                format!("must be > 0 kg/m³, got {}", b.density),
+            ));
         }
         if !(0.0..=1.0).contains(&b.restitution) {
-            return Err(invalid(key_line("restitution"), field("restitution"), format!("must be in [0, 1], got {}", b.restitution)));
+            return Err(invalid(
+                key_line("restitution"),
+                field("restitution"),
+                format!("must be in [0, 1], got {}", b.restitution),
+            ));
         }
         if !(b.friction.is_finite() && b.friction >= 0.0) {
-            return Err(invalid(key_line("friction"), field("friction"), format!("must be ≥ 0, got {}", b.friction)));
+            return Err(invalid(
+                key_line("friction"),
+                field("friction"),
+                format!("must be ≥ 0, got {}", b.friction),
+            ));
         }
         if !(1..=500).contains(&b.modes) {
-            return Err(invalid(key_line("modes"), field("modes"), format!("must be in 1..=500, got {}", b.modes)));
+            return Err(invalid(
+                key_line("modes"),
+                field("modes"),
+                format!("must be in 1..=500, got {}", b.modes),
+            ));
         }
         if !(b.poisson > 0.0 && b.poisson < 0.5) {
-            return Err(invalid(key_line("poisson"), field("poisson"), format!("must be in (0, 0.5), got {}", b.poisson)));
+            return Err(invalid(
+                key_line("poisson"),
+                field("poisson"),
+                format!("must be in (0, 0.5), got {}", b.poisson),
+            ));
         }
         if !(b.scale.is_finite() && b.scale > 0.0) {
-            return Err(invalid(key_line("scale"), field("scale"), format!("must be > 0, got {}", b.scale)));
+            return Err(invalid(
+                key_line("scale"),
+                field("scale"),
+                format!("must be > 0, got {}", b.scale),
+            ));
         }
         if b.material.trim().is_empty() {
-            return Err(invalid(key_line("material"), field("material"), "must name a material".into()));
+            return Err(invalid(
+                key_line("material"),
+                field("material"),
+                "must name a material".into(),
+            ));
         }
         let vectors = [
             ("position", b.position),
@@ -343,8 +371,15 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
             ("velocity", b.velocity),
             ("angular_velocity", b.angular_velocity),
         ];
-        if let Some((name, _)) = vectors.iter().find(|(_, v)| !v.iter().all(|x| x.is_finite())) {
-            return Err(invalid(key_line(name), field(name), "must be finite".into()));
+        if let Some((name, _)) = vectors
+            .iter()
+            .find(|(_, v)| !v.iter().all(|x| x.is_finite()))
+        {
+            return Err(invalid(
+                key_line(name),
+                field(name),
+                "must be finite".into(),
+            ));
         }
         let pos = |v: f64| v.is_finite() && v > 0.0;
         let shape_ok = match &b.shape {
@@ -358,7 +393,10 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
             return Err(invalid(
                 key_line("shape"),
                 field("shape"),
-                format!("sizes must be positive (bowl: 2 or 3 values), got {:?}", b.shape),
+                format!(
+                    "sizes must be positive (bowl: 2 or 3 values), got {:?}",
+                    b.shape
+                ),
             ));
         }
     }
@@ -395,16 +433,23 @@ position = [0, 0.3, 0]
         assert_eq!(s.body.len(), 2);
         let ball = s.body[1].get_ref();
         assert_eq!(ball.shape, ShapeFile::Sphere(0.02));
-        assert_eq!((ball.modes, ball.restitution, s.sample_rate), (32, 0.5, 48_000));
+        assert_eq!(
+            (ball.modes, ball.restitution, s.sample_rate),
+            (32, 0.5, 48_000)
+        );
     }
 
     #[test]
     fn errors_name_the_line_and_the_field() {
         // A missing field: toml names it and the line.
-        let e = parse_scene(&GOOD.replace("density = 7850\n", ""), "s.toml").unwrap_err().to_string();
+        let e = parse_scene(&GOOD.replace("density = 7850\n", ""), "s.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("density") && e.contains("line"), "{e}");
         // A misspelt field.
-        let e = parse_scene(&GOOD.replace("density = 7850", "densty = 7850"), "s.toml").unwrap_err().to_string();
+        let e = parse_scene(&GOOD.replace("density = 7850", "densty = 7850"), "s.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("densty") && e.contains("line"), "{e}");
         // A value out of range: the body's line and the field.
         let e = parse_scene(&GOOD.replace("density = 7850", "density = -3"), "s.toml").unwrap_err();
@@ -416,10 +461,17 @@ position = [0, 0.3, 0]
             other => panic!("{other:?}"),
         }
         // Wrong type and bad syntax.
-        let e = parse_scene(&GOOD.replace("duration = 2.0", "duration = \"long\""), "s.toml").unwrap_err().to_string();
+        let e = parse_scene(
+            &GOOD.replace("duration = 2.0", "duration = \"long\""),
+            "s.toml",
+        )
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("duration") && e.contains("line 2"), "{e}");
         assert!(parse_scene("[[body]\nname=", "s.toml").is_err());
-        let e = parse_scene(&GOOD.replace("sphere = 0.02", "sphere = 0"), "s.toml").unwrap_err().to_string();
+        let e = parse_scene(&GOOD.replace("sphere = 0.02", "sphere = 0"), "s.toml")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("shape"), "{e}");
     }
 }

@@ -89,6 +89,8 @@ struct Voice {
     gains: Vec<f64>,
     force: Vec<f32>,
     head: usize,
+    /// Samples from `head` on that may hold force.
+    pending: usize,
 }
 
 #[derive(Default)]
@@ -323,6 +325,7 @@ pub fn simulate(
                     gains: vec![0.0; s.modes.len()],
                     force: vec![0.0; FORCE_RING],
                     head: 0,
+                    pending: 0,
                 })
             }
             None => None,
@@ -527,6 +530,8 @@ pub fn simulate(
                 } else {
                     None
                 };
+                // Force amplitudes far below a micronewton are inaudible: no excitation.
+                let kind = kind.filter(|&(_, speed)| ROUGHNESS * normal_force * speed > 1e-6);
                 if let Some((kind, speed)) = kind {
                     step_force.clear();
                     step_force.resize(n, 0.0f32);
@@ -535,7 +540,11 @@ pub fn simulate(
                     // Low-pass for rolling: one pole at 50 Hz + 300 Hz per m/s.
                     let fc = 50.0 + 300.0 * speed;
                     let a = (-std::f64::consts::TAU * fc / fs).exp();
-                    for f in step_force.iter_mut() {
+                    // The rolling body's rotation modulates the force (a few Hz): its phase is
+                    // interpolated across the step instead of a sine per sample.
+                    let rot0 = (state.path_m / roll_radius).sin();
+                    let rot1 = ((state.path_m + speed * n as f64 / fs) / roll_radius).sin();
+                    for (k, f) in step_force.iter_mut().enumerate() {
                         state.path_m += speed / fs;
                         let x = f64::from(at(&profile, state.path_m + state.offset_m));
                         *f = match kind {
@@ -544,7 +553,7 @@ pub fn simulate(
                                 state.lowpass[0] = a * state.lowpass[0] + (1.0 - a) * x;
                                 state.lowpass[1] =
                                     a * state.lowpass[1] + (1.0 - a) * state.lowpass[0];
-                                let rotation = (state.path_m / roll_radius).sin();
+                                let rotation = rot0 + (rot1 - rot0) * k as f64 / n.max(1) as f64;
                                 (ROUGHNESS / 3.0
                                     * normal_force
                                     * speed
@@ -597,6 +606,11 @@ pub fn simulate(
         let mut sounding = 0;
         for (i, v) in voices.iter_mut().enumerate() {
             let Some(v) = v else { continue };
+            if v.pending == 0 && v.bank.is_silent() {
+                v.head = (v.head + n) % FORCE_RING;
+                continue;
+            }
+            v.pending = v.pending.saturating_sub(n);
             buf.clear();
             buf.resize(n, 0.0f32);
             let mut f = std::mem::take(&mut step_force);
@@ -680,11 +694,10 @@ fn excite(
         *g = f64::from(sound.gains[k * v.modes + j]);
     }
     v.bank.set_gains(&v.gains);
-    for (n, &f) in force.iter().enumerate() {
-        if at_sample + n >= FORCE_RING {
-            break;
-        }
+    let len = force.len().min(FORCE_RING.saturating_sub(at_sample));
+    for (n, &f) in force[..len].iter().enumerate() {
         let idx = (v.head + at_sample + n) % FORCE_RING;
         v.force[idx] += (f64::from(f) * scale) as f32;
     }
+    v.pending = v.pending.max(at_sample + len);
 }

@@ -14,9 +14,9 @@ pub use resound_estimate as estimate;
 pub use resound_fem as fem;
 pub use resound_io as io;
 pub use resound_modal as modal;
+pub use resound_physics as physics;
 pub use resound_signal as signal;
 pub use resound_synth as synth;
-pub use resound_physics as physics;
 
 pub mod scene;
 

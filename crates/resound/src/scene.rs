@@ -109,7 +109,11 @@ fn subdivide(mut m: SurfaceMesh, times: usize) -> SurfaceMesh {
         let mut midpoint = |a: u32, b: u32, v: &mut Vec<[f64; 3]>| {
             *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
                 let (p, q) = (v[a as usize], v[b as usize]);
-                v.push([0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1]), 0.5 * (p[2] + q[2])]);
+                v.push([
+                    0.5 * (p[0] + q[0]),
+                    0.5 * (p[1] + q[1]),
+                    0.5 * (p[2] + q[2]),
+                ]);
                 (v.len() - 1) as u32
             })
         };
@@ -192,7 +196,11 @@ fn modal_model(
             h = fnv1a(&c.to_le_bytes(), h);
         }
     }
-    for x in [material.youngs_modulus, material.poisson_ratio, material.density] {
+    for x in [
+        material.youngs_modulus,
+        material.poisson_ratio,
+        material.density,
+    ] {
         h = fnv1a(&x.to_le_bytes(), h);
     }
     h = fnv1a(&(b.modes as u64).to_le_bytes(), h);
