@@ -184,6 +184,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         no_cache: a.no_cache,
         json: false,
         play: false,
+        keep_level: false,
     })?;
     step(
         &format!(

@@ -38,6 +38,10 @@ pub struct SceneArgs {
     /// Also play the result (needs the `live` build feature).
     #[arg(long)]
     pub play: bool,
+    /// Keep the physical level (σ-calibrated) instead of normalizing the peak to −1 dBFS; a mix
+    /// that would clip is still turned down.
+    #[arg(long)]
+    pub keep_level: bool,
 }
 
 /// The default modal-model cache directory.
@@ -116,16 +120,18 @@ pub fn render_scene(a: &SceneArgs) -> Result<serde_json::Value> {
         anyhow::bail!("the scene's sound is not finite (absurd parameters?)");
     }
     let mut gain_db = 0.0f32;
-    if peak > 0.891 {
+    if peak > 0.891 || (!a.keep_level && peak > 0.0) {
         let g = 0.891 / peak;
         gain_db = 20.0 * g.log10();
         out.channels
             .iter_mut()
             .for_each(|c| c.iter_mut().for_each(|v| *v *= g));
-        eprintln!(
-            "note: peak {peak:.2} of full scale; turned down by {:.1} dB (no clipping)",
-            -gain_db
-        );
+        if a.keep_level {
+            eprintln!(
+                "note: peak {peak:.2} of full scale; turned down by {:.1} dB (no clipping)",
+                -gain_db
+            );
+        }
     } else if peak == 0.0 {
         eprintln!("note: the scene is silent (no sounding contacts)");
     }

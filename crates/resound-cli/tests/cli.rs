@@ -715,3 +715,114 @@ fn estimate_recovers_a_known_material_and_fills_the_library() {
         "x,y,z",
     );
 }
+
+#[test]
+fn scene_renders_a_dropped_ball_and_names_bad_fields() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = r#"
+duration = 1.0
+[listener]
+position = [0.0, 0.3, 0.5]
+
+[[body]]
+name = "table"
+fixed = true
+shape = { box = [0.6, 0.04, 0.4] }
+material = "preset:wood"
+density = 700
+position = [0.0, -0.02, 0.0]
+modes = 12
+
+[[body]]
+name = "ball"
+shape = { sphere = 0.02 }
+material = "preset:steel"
+density = 7850
+position = [0.0, 0.22, 0.0]
+modes = 8
+"#;
+    std::fs::write(d.join("s.toml"), scene).unwrap();
+    let args = [
+        "scene",
+        "s.toml",
+        "-o",
+        "s.wav",
+        "--events",
+        "ev.jsonl",
+        "--library",
+        "lib.sqlite",
+        "--cache",
+        "cache",
+        "--json",
+    ];
+    let v: Value = serde_json::from_str(&ok(&resound(&args, d))).unwrap();
+    assert!(v["impacts"].as_u64().unwrap() >= 1, "{v}");
+    let clip = resound::io::load_audio(&d.join("s.wav")).unwrap();
+    assert_eq!(clip.channels.len(), 2);
+    let first: Value = serde_json::from_str(
+        std::fs::read_to_string(d.join("ev.jsonl"))
+            .unwrap()
+            .lines()
+            .next()
+            .unwrap(),
+    )
+    .unwrap();
+    assert_eq!(first["kind"], "impact");
+    let t = first["time_s"].as_f64().unwrap();
+    assert!((t - (2.0f64 * 0.2 / 9.81).sqrt()).abs() < 3e-3, "{first}");
+    // The modal models are cached: a second run finds them.
+    assert!(std::fs::read_dir(d.join("cache")).unwrap().count() == 2);
+    // A bad value names its line and field; nothing is written.
+    std::fs::write(
+        d.join("bad.toml"),
+        scene.replace("density = 7850", "density = 0"),
+    )
+    .unwrap();
+    let mut bad = args;
+    bad[1] = "bad.toml";
+    bad[3] = "bad.wav";
+    fails_with(&resound(&bad, d), "line 19: body \"ball\".density");
+    assert!(!d.join("bad.wav").exists());
+    std::fs::write(
+        d.join("bad.toml"),
+        scene.replace("modes = 8", "modes = 8\ncolour = 3"),
+    )
+    .unwrap();
+    fails_with(&resound(&bad, d), "colour");
+}
+
+#[test]
+fn demo_runs_end_to_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = ok(&resound(
+        &[
+            "demo",
+            "--out-dir",
+            "out",
+            "--library",
+            "lib.sqlite",
+            "--no-cache",
+        ],
+        d,
+    ));
+    assert!(out.contains("estimated the material"), "{out}");
+    for f in [
+        "recording.png",
+        "estimate.png",
+        "scene.png",
+        "scene.wav",
+        "strike.wav",
+        "material.json",
+        "events.jsonl",
+        "summary.txt",
+    ] {
+        assert!(d.join("out").join(f).exists(), "{f} missing");
+    }
+    let list = ok(&resound(
+        &["materials", "list", "--library", "lib.sqlite"],
+        d,
+    ));
+    assert!(list.contains("demo-ramp"), "{list}");
+}
