@@ -148,6 +148,8 @@ pub fn run(a: DemoArgs) -> Result<()> {
         mesh: Some(model_path.clone()),
         hit: Some(hit),
         modes: None,
+        stats: None,
+        seed: 1,
         velocity: 1.0,
         impactor_mass: None,
         impactor_radius: 0.005,

@@ -15,6 +15,7 @@ mod mesh_cmd;
 mod modal_cmd;
 mod plot;
 mod scene_cmd;
+mod stats_cmd;
 mod synth_cmd;
 mod util;
 
@@ -51,6 +52,9 @@ enum Command {
     Synth(synth_cmd::SynthArgs),
     /// Render a physics scene (TOML: bodies, materials, listener) to WAV and an event log.
     Scene(scene_cmd::SceneArgs),
+    /// Per-material mode statistics (Traer 2019): fit to recordings, import PyImpact tables.
+    #[command(subcommand)]
+    Stats(stats_cmd::StatsCmd),
     /// Inspect a saved modal model, optionally rescaled to another material or at a hit point.
     Model(modal_cmd::ModelInfoArgs),
     /// Run the benchmarks and print their figures (table or JSON).
@@ -73,6 +77,7 @@ fn main() -> ExitCode {
         Command::Materials(c) => estimate_cmd::run_materials(c),
         Command::Synth(a) => synth_cmd::run(a),
         Command::Scene(a) => scene_cmd::run(a),
+        Command::Stats(c) => stats_cmd::run(c),
         Command::Bench(c) => bench::run(c),
         Command::BenchCase(a) => bench::run_case(a),
     };

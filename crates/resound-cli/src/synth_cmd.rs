@@ -40,17 +40,23 @@ pub enum FormatArg {
 #[derive(Args, Debug)]
 pub struct SynthArgs {
     /// Material: a library name or a material file (JSON).
-    #[arg(long, required_unless_present = "modes")]
+    #[arg(long, required_unless_present_any = ["modes", "stats"])]
     pub material: Option<String>,
     /// The struck object: a surface or tet mesh, or a saved modal model (.rmodal).
-    #[arg(long, required_unless_present = "modes")]
+    #[arg(long, required_unless_present_any = ["modes", "stats"])]
     pub mesh: Option<PathBuf>,
     /// Hit point x,y,z in metres (snapped to the nearest surface point).
-    #[arg(long, allow_hyphen_values = true, required_unless_present = "modes")]
+    #[arg(long, allow_hyphen_values = true, required_unless_present_any = ["modes", "stats"])]
     pub hit: Option<String>,
     /// Render analysed modes directly (the JSON of `resound analyze --json`) instead.
     #[arg(long, conflicts_with_all = ["material", "mesh", "hit"])]
     pub modes: Option<PathBuf>,
+    /// Render an impulse response sampled from mode statistics (`resound stats`) instead.
+    #[arg(long, conflicts_with_all = ["material", "mesh", "hit", "modes"])]
+    pub stats: Option<PathBuf>,
+    /// Seed of the sampled impulse response (`--stats`); the per-impact variation uses seed + 1.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
     /// Impact speed, m/s.
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
     pub velocity: f64,
@@ -146,9 +152,10 @@ pub fn run(a: SynthArgs) -> Result<()> {
     }
     let samples = (a.duration * fs).round() as usize;
     let t0 = std::time::Instant::now();
-    let (mut out, summary, live) = match &a.modes {
-        Some(p) => render_modes(&a, p, fs, samples)?,
-        None => render_material(&a, fs, samples)?,
+    let (mut out, summary, live) = match (&a.modes, &a.stats) {
+        (Some(p), _) => render_modes(&a, p, fs, samples)?,
+        (None, Some(p)) => render_stats(&a, p, fs, samples)?,
+        (None, None) => render_material(&a, fs, samples)?,
     };
     let level = normalize(&mut out, 0.891)?;
     if level.gain_db < 0.0 {
@@ -239,6 +246,56 @@ fn render_modes(
     Ok((
         x,
         json!({"modes": kept.len(), "source": path.display().to_string(), "impulse_n_s": 2.0 * mass * a.velocity}),
+        live,
+    ))
+}
+
+/// An IR sampled from statistics, struck by the impact. The struck object's elastic constants
+/// are unknown here: Hertz contact takes the impactor's on both sides.
+fn render_stats(
+    a: &SynthArgs,
+    path: &std::path::Path,
+    fs: f64,
+    samples: usize,
+) -> Result<Rendered> {
+    let stats = crate::stats_cmd::load(path)?;
+    let ir = resound::stats::perturb(&stats.sample(a.seed)?, a.seed.wrapping_add(1));
+    let modes: Vec<DampedMode> = ir.into_iter().filter(|m| m.freq_hz < 0.5 * fs).collect();
+    if modes.is_empty() {
+        bail!("the sampled impulse response has no modes below Nyquist");
+    }
+    let impactor = Material::parse(&a.impactor_material)?;
+    let elastic = Elastic {
+        youngs_modulus: impactor.youngs_modulus,
+        poisson_ratio: impactor.poisson_ratio,
+    };
+    let impact = Impact {
+        impactor_mass_kg: impactor_mass(a, &impactor),
+        impactor_radius_m: a.impactor_radius,
+        impactor: elastic,
+        object: elastic,
+        object_mass_kg: None,
+        speed_m_s: a.velocity,
+    };
+    let model_kind = match a.contact {
+        ContactArg::Hertz => ContactModel::Hertz,
+        ContactArg::Spring => ContactModel::Spring,
+        ContactArg::Impulse => ContactModel::Impulse,
+    };
+    let force = impact.force_pulse(model_kind, fs, 0.0)?;
+    let mut bm = bank_modes(&modes);
+    bm.iter_mut()
+        .for_each(|m| m.gain /= reference_impulse_n_s());
+    let out = render_strike(&bm, &force, fs, samples)?;
+    let live = crate::live::LiveParts {
+        modes: bm,
+        force,
+        extra: Vec::new(),
+        gain: 1.0,
+    };
+    Ok((
+        out,
+        json!({"stats": path.display().to_string(), "material": stats.material, "modes": modes.len(), "seed": a.seed, "impulse_n_s": impact.impulse_n_s()}),
         live,
     ))
 }

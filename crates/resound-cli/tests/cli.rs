@@ -826,3 +826,73 @@ fn demo_runs_end_to_end() {
     ));
     assert!(list.contains("demo-ramp"), "{list}");
 }
+
+#[test]
+fn pyimpact_tables_import_and_render_their_own_frequencies() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/pyimpact");
+    ok(&resound(
+        &[
+            "stats",
+            "import-pyimpact",
+            fixtures.to_str().unwrap(),
+            "-o",
+            "st",
+        ],
+        d,
+    ));
+    let stats = d.join("st/metal_3.stats.json");
+    assert!(stats.exists());
+    ok(&resound(
+        &[
+            "synth",
+            "--stats",
+            stats.to_str().unwrap(),
+            "--duration",
+            "1",
+            "-o",
+            "m.wav",
+        ],
+        d,
+    ));
+    let table: Value =
+        serde_json::from_str(&std::fs::read_to_string(fixtures.join("metal_3_mm.json")).unwrap())
+            .unwrap();
+    let v: Value =
+        serde_json::from_str(&ok(&resound(&["analyze", "m.wav", "--json", "-"], d))).unwrap();
+    let found: Vec<f64> = v["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["freq_hz"].as_f64().unwrap())
+        .collect();
+    for cf in table["cf"].as_array().unwrap() {
+        let cf = cf.as_f64().unwrap();
+        assert!(
+            found.iter().any(|f| (f - cf).abs() < 0.5),
+            "{cf} not in {found:?}"
+        );
+    }
+    // Fitting needs recordings with enough modes; a statistics file must be consistent.
+    fails_with(
+        &resound(
+            &[
+                "stats",
+                "fit",
+                "m.wav",
+                "--material",
+                "metal",
+                "-o",
+                "x.json",
+            ],
+            d,
+        ),
+        "at least 2 recordings",
+    );
+    std::fs::write(d.join("bad.stats.json"), "{\"material\": \"x\"}").unwrap();
+    fails_with(
+        &resound(&["synth", "--stats", "bad.stats.json", "-o", "y.wav"], d),
+        "not a statistics file",
+    );
+}

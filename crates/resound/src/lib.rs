@@ -16,6 +16,7 @@ pub use resound_io as io;
 pub use resound_modal as modal;
 pub use resound_physics as physics;
 pub use resound_signal as signal;
+pub use resound_stats as stats;
 pub use resound_synth as synth;
 
 pub mod scene;
