@@ -15,6 +15,7 @@ mod mesh_cmd;
 mod modal_cmd;
 mod plot;
 mod scene_cmd;
+mod scrape_cmd;
 mod stats_cmd;
 mod synth_cmd;
 mod util;
@@ -52,6 +53,8 @@ enum Command {
     Synth(synth_cmd::SynthArgs),
     /// Render a physics scene (TOML: bodies, materials, listener) to WAV and an event log.
     Scene(scene_cmd::SceneArgs),
+    /// Scrape a probe over a surface texture (Traer 2019 §4) on an object, to WAV.
+    Scrape(scrape_cmd::ScrapeArgs),
     /// Per-material mode statistics (Traer 2019): fit to recordings, import PyImpact tables.
     #[command(subcommand)]
     Stats(stats_cmd::StatsCmd),
@@ -78,6 +81,7 @@ fn main() -> ExitCode {
         Command::Synth(a) => synth_cmd::run(a),
         Command::Scene(a) => scene_cmd::run(a),
         Command::Stats(c) => stats_cmd::run(c),
+        Command::Scrape(a) => scrape_cmd::run(a),
         Command::Bench(c) => bench::run(c),
         Command::BenchCase(a) => bench::run_case(a),
     };

@@ -122,7 +122,7 @@ fn impactor_mass(a: &SynthArgs, impactor: &Material) -> f64 {
     })
 }
 
-fn load_sound_material(spec: &str, library: &Option<PathBuf>) -> Result<SoundMaterial> {
+pub fn load_sound_material(spec: &str, library: &Option<PathBuf>) -> Result<SoundMaterial> {
     let path = std::path::Path::new(spec);
     if path
         .extension()

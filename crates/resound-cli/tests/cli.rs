@@ -890,6 +890,47 @@ fn pyimpact_tables_import_and_render_their_own_frequencies() {
         ),
         "at least 2 recordings",
     );
+    // Scraping the same object: a faster trajectory is louder.
+    std::fs::write(d.join("slow.csv"), "time_s,position_m\n0,0\n1,0.1\n").unwrap();
+    std::fs::write(d.join("fast.csv"), "time_s,position_m\n0,0\n1,0.4\n").unwrap();
+    let peak = |traj: &str| {
+        let v: Value = serde_json::from_str(&ok(&resound(
+            &[
+                "scrape",
+                "--stats",
+                stats.to_str().unwrap(),
+                "--trajectory",
+                traj,
+                "--duration",
+                "1",
+                "--json",
+                "-o",
+                "s.wav",
+            ],
+            d,
+        )))
+        .unwrap();
+        v["peak"].as_f64().unwrap()
+    };
+    let (slow, fast) = (peak("slow.csv"), peak("fast.csv"));
+    assert!(fast > 1.2 * slow, "{slow} {fast}");
+    std::fs::write(d.join("bad.csv"), "time_s,position_m\n0,0\n1,x\n").unwrap();
+    fails_with(
+        &resound(
+            &[
+                "scrape",
+                "--stats",
+                stats.to_str().unwrap(),
+                "--trajectory",
+                "bad.csv",
+                "-o",
+                "z.wav",
+            ],
+            d,
+        ),
+        "line 3",
+    );
+    assert!(!d.join("z.wav").exists());
     std::fs::write(d.join("bad.stats.json"), "{\"material\": \"x\"}").unwrap();
     fails_with(
         &resound(&["synth", "--stats", "bad.stats.json", "-o", "y.wav"], d),

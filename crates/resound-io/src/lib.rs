@@ -18,6 +18,7 @@ pub mod library;
 pub mod mesh;
 pub mod model_file;
 pub mod mtx;
+pub mod npy;
 mod ply;
 pub mod scene;
 mod tetfile;

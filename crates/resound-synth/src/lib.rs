@@ -18,6 +18,7 @@ pub mod engine;
 pub mod excitation;
 pub mod render;
 pub mod residual;
+pub mod scrape;
 
 pub use bank::{BankMode, ModalBank};
 pub use engine::{Engine, EngineParams, VoiceId};
