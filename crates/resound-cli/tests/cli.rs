@@ -931,6 +931,28 @@ fn pyimpact_tables_import_and_render_their_own_frequencies() {
         "line 3",
     );
     assert!(!d.join("z.wav").exists());
+    // A scene body can sound from the statistics instead of a modal model.
+    let scene = "duration = 0.6\n[[body]]\nname = \"floor\"\nfixed = true\nsound = false\nshape = { box = [0.5, 0.04, 0.5] }\nmaterial = \"preset:wood\"\ndensity = 700\nposition = [0, -0.02, 0]\n[[body]]\nname = \"can\"\nshape = { sphere = 0.03 }\nmaterial = \"preset:steel\"\nstats = \"st/metal_3.stats.json\"\ndensity = 7850\nposition = [0, 0.2, 0]\n";
+    std::fs::write(d.join("st.toml"), scene).unwrap();
+    let v: Value = serde_json::from_str(&ok(&resound(
+        &[
+            "scene",
+            "st.toml",
+            "-o",
+            "st.wav",
+            "--library",
+            "lib.sqlite",
+            "--no-cache",
+            "--keep-level",
+            "--json",
+        ],
+        d,
+    )))
+    .unwrap();
+    assert!(
+        v["impacts"].as_u64().unwrap() >= 1 && v["peak"].as_f64().unwrap() > 0.0,
+        "{v}"
+    );
     std::fs::write(d.join("bad.stats.json"), "{\"material\": \"x\"}").unwrap();
     fails_with(
         &resound(&["synth", "--stats", "bad.stats.json", "-o", "y.wav"], d),

@@ -34,7 +34,8 @@
 //! Shapes: `box = [x, y, z]`, `plate = [x, y, thickness]` (full sizes), `sphere = r`,
 //! `cylinder = [r, height]` (along z), `bowl = [r, thickness]` or `[r, thickness, depth]`,
 //! `mesh = "file.obj"` (relative to the scene file; `scale` multiplies its coordinates).
-//! `rotation` is a rotation vector in degrees (axis × angle). Errors name the line and the
+//! `rotation` is a rotation vector in degrees (axis × angle). `stats = "metal.stats.json"` makes
+//! a body sound from mode statistics instead of its modal model. Errors name the line and the
 //! field.
 
 use serde::Deserialize;
@@ -111,8 +112,14 @@ pub struct BodyFile {
     pub name: String,
     /// Shape.
     pub shape: ShapeFile,
-    /// Material: library name, material file, or `preset:NAME`.
+    /// Material: library name, material file, or `preset:NAME`. With `stats`, it only names
+    /// the elastic constants for Hertz contact (a preset name) and may be any of these.
     pub material: String,
+    /// Sound from mode statistics (`resound stats`, a `.stats.json` file) instead of a modal
+    /// model of the shape: one sampled impulse response per body, powers varied ±20 % over the
+    /// surface (Traer 2019).
+    #[serde(default)]
+    pub stats: Option<String>,
     /// Density, kg/m³.
     pub density: f64,
     /// Immovable.
