@@ -73,6 +73,7 @@ pub fn run(c: StatsCmd) -> Result<()> {
     match c {
         StatsCmd::Fit(a) => {
             let mut all = Vec::new();
+            let mut transients = Vec::new();
             for p in &a.recordings {
                 let clip = resound::io::load_audio(p)?;
                 let x = clip.mono(None, p)?;
@@ -83,9 +84,21 @@ pub fn run(c: StatsCmd) -> Result<()> {
                 let r = resound::signal::analyze(&x, f64::from(clip.sample_rate_hz), &params)
                     .with_context(|| format!("analysing {}", p.display()))?;
                 eprintln!("{}: {} modes", p.display(), r.modes.len());
+                // The transient: what the modes leave of the strike (Traer eq. 3).
+                let fs = f64::from(clip.sample_rate_hz);
+                let onset = (r.onset_s * fs).round() as usize;
+                let mut seg = x[onset.min(x.len())..].to_vec();
+                if let Some(f) = a.highpass_hz {
+                    resound::signal::filter::highpass_zero_phase(&mut seg, f, fs);
+                }
+                seg.truncate(r.samples);
+                let modal = resound::core::damped::synthesize(&r.modes, fs, seg.len());
+                let residual: Vec<f64> = seg.iter().zip(&modal).map(|(a, b)| a - b).collect();
+                transients.push(resound::stats::transient::fit_transient(&residual, fs, 30));
                 all.push(r.modes);
             }
-            let s = ModeStatistics::fit(&a.material, &all, a.modes)?;
+            let mut s = ModeStatistics::fit(&a.material, &all, a.modes)?;
+            s.transient = resound::stats::TransientStats::fit(&transients).ok();
             save(&a.output, &s)?;
             eprintln!(
                 "wrote {} ({} recordings, {} modes)",

@@ -286,11 +286,24 @@ fn render_stats(
     let mut bm = bank_modes(&modes);
     bm.iter_mut()
         .for_each(|m| m.gain /= reference_impulse_n_s());
-    let out = render_strike(&bm, &force, fs, samples)?;
+    let mut out = render_strike(&bm, &force, fs, samples)?;
+    // The transient noise bands, when the statistics have them, at the impact's level.
+    let mut extra = Vec::new();
+    if let Some(ts) = &stats.transient {
+        let t = ts.sample(a.seed.wrapping_add(2));
+        let scale = impact.impulse_n_s() / reference_impulse_n_s();
+        extra = resound::stats::transient::synthesize_transient(&t, fs, samples, a.seed)
+            .iter()
+            .map(|v| (v * scale) as f32)
+            .collect();
+        for (o, v) in out.iter_mut().zip(&extra) {
+            *o += v;
+        }
+    }
     let live = crate::live::LiveParts {
         modes: bm,
         force,
-        extra: Vec::new(),
+        extra,
         gain: 1.0,
     };
     Ok((

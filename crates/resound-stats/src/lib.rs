@@ -17,9 +17,13 @@
 //!   Hz, `op` as onset power in dB, `rt` as RT60 in s. Their modes become the mean with zero
 //!   spread, so sampling reproduces their frequencies exactly.
 //!
-//! Not yet here: the transient (N = 30 ERB noise bands).
+//! The transient (eq. 3: N = 30 ERB-spaced noise bands with onset level and decay) is fitted
+//! from each recording's residual after its modes ([`transient`]) and kept as per-band means and
+//! spreads ([`TransientStats`]).
 
 #![warn(missing_docs)]
+
+pub mod transient;
 
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
@@ -57,6 +61,95 @@ pub struct ModeStatistics {
     pub covariance: Vec<f64>,
     /// Recordings (or tables) the statistics come from.
     pub sources: usize,
+    /// Statistics of the transient noise bands (Traer eq. 3), when fitted from recordings.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub transient: Option<TransientStats>,
+}
+
+/// Per-band mean and spread of the transient's onset level and decay over recordings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TransientStats {
+    /// Band edges, Hz.
+    pub edges_hz: Vec<f64>,
+    /// Mean onset level per band, dB.
+    pub onset_db_mean: Vec<f64>,
+    /// Standard deviation of the onset level, dB.
+    pub onset_db_sd: Vec<f64>,
+    /// Mean decay per band, dB/s.
+    pub decay_mean: Vec<f64>,
+    /// Standard deviation of the decay, dB/s.
+    pub decay_sd: Vec<f64>,
+}
+
+impl TransientStats {
+    /// Mean and spread of fitted transients (all with the same bands).
+    pub fn fit(fits: &[transient::Transient]) -> Result<Self, StatsError> {
+        let Some(first) = fits.first() else {
+            return Err(StatsError::Data("no transients to fit".into()));
+        };
+        if fits.iter().any(|t| t.edges_hz != first.edges_hz) {
+            return Err(StatsError::Data(
+                "transients with different bands (mixed sample rates?)".into(),
+            ));
+        }
+        let n = fits.len() as f64;
+        let stats = |get: &dyn Fn(&transient::Transient) -> &Vec<f64>| {
+            let bands = get(first).len();
+            let mean: Vec<f64> = (0..bands)
+                .map(|b| fits.iter().map(|t| get(t)[b]).sum::<f64>() / n)
+                .collect();
+            let sd: Vec<f64> = (0..bands)
+                .map(|b| {
+                    if fits.len() < 2 {
+                        0.0
+                    } else {
+                        (fits
+                            .iter()
+                            .map(|t| (get(t)[b] - mean[b]).powi(2))
+                            .sum::<f64>()
+                            / (n - 1.0))
+                            .sqrt()
+                    }
+                })
+                .collect();
+            (mean, sd)
+        };
+        let (onset_db_mean, onset_db_sd) = stats(&|t| &t.onset_db);
+        let (decay_mean, decay_sd) = stats(&|t| &t.decay_db_per_s);
+        Ok(Self {
+            edges_hz: first.edges_hz.clone(),
+            onset_db_mean,
+            onset_db_sd,
+            decay_mean,
+            decay_sd,
+        })
+    }
+
+    /// One transient drawn band by band (independent Gaussians; decays kept ≥ 0).
+    pub fn sample(&self, seed: u64) -> transient::Transient {
+        let mut rng = SmallRng::seed_from_u64(seed);
+        let mut draw = |m: f64, s: f64| {
+            let z: f64 = StandardNormal.sample(&mut rng);
+            m + s * z
+        };
+        let onset_db = self
+            .onset_db_mean
+            .iter()
+            .zip(&self.onset_db_sd)
+            .map(|(&m, &s)| draw(m, s))
+            .collect();
+        let decay_db_per_s = self
+            .decay_mean
+            .iter()
+            .zip(&self.decay_sd)
+            .map(|(&m, &s)| draw(m, s).max(0.0))
+            .collect();
+        transient::Transient {
+            edges_hz: self.edges_hz.clone(),
+            onset_db,
+            decay_db_per_s,
+        }
+    }
 }
 
 /// One mode's coordinates.
@@ -128,6 +221,7 @@ impl ModeStatistics {
             mean,
             covariance,
             sources: rows.len(),
+            transient: None,
         })
     }
 
@@ -170,6 +264,7 @@ impl ModeStatistics {
             mean,
             covariance: vec![0.0; dim * dim],
             sources: 1,
+            transient: None,
         })
     }
 
