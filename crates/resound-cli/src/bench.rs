@@ -752,7 +752,7 @@ fn run_stats(a: StatsBenchArgs) -> Result<()> {
     })?;
     let scrape10 = best(&|| {
         let t0 = std::time::Instant::now();
-        let surface = Surface::fractal(1 << 20, 1e-5, 1.0, 5e-6, 1)?;
+        let surface = Surface::fractal(1 << 20, 1e-5, 2.0, 5e-6, 1)?;
         let n = 441_000;
         let x: Vec<f64> = (0..n).map(|i| 0.3 * i as f64 / fs).collect();
         let f = scrape_force(&surface, &x, fs, &ScrapeParams::default());

@@ -31,7 +31,7 @@ pub struct ScrapeArgs {
     /// Where on the object the scrape happens (with --material), m.
     #[arg(long, allow_hyphen_values = true)]
     pub hit: Option<String>,
-    /// Surface: "fractal" (1/f profile) or a height profile (.npy, metres; quilted).
+    /// Surface: "fractal" (a 1/f² Brownian profile) or a height profile (.npy, metres; quilted).
     #[arg(long, default_value = "fractal")]
     pub surface: String,
     /// Sample spacing of the surface profile, m (the PyImpact profiles' spacing is not
@@ -59,6 +59,9 @@ pub struct ScrapeArgs {
     /// Exponent γ of eq. 8.
     #[arg(long, default_value_t = 1.0)]
     pub gamma: f64,
+    /// Width of the probe's tip, m (it smooths the texture: a spatial low-pass).
+    #[arg(long, default_value_t = 2e-4)]
+    pub tip_width: f64,
     /// Location-dependent IRs along the path (eq. 9).
     #[arg(long, default_value_t = 8)]
     pub irs: usize,
@@ -151,7 +154,11 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
         probe_mass_kg: a.probe_mass,
         friction: a.friction,
         gamma: a.gamma,
+        tip_width_m: a.tip_width,
     };
+    if !(a.tip_width.is_finite() && a.tip_width >= 0.0 && a.tip_width < 0.05) {
+        bail!("--tip-width must be in [0, 0.05) m");
+    }
     if !(p.probe_mass_kg > 0.0
         && p.probe_mass_kg.is_finite()
         && p.friction >= 0.0
@@ -171,7 +178,7 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
         (None, None) => bail!("give --trajectory FILE or --speed M/S"),
     };
     let surface = if a.surface == "fractal" {
-        Surface::fractal(1 << 20, a.surface_spacing_m, 1.0, a.roughness_m, a.seed)?
+        Surface::fractal(1 << 20, a.surface_spacing_m, 2.0, a.roughness_m, a.seed)?
     } else {
         let heights = resound::io::npy::read_npy_f64(Path::new(&a.surface))?;
         let patch = (heights.len() / 8).clamp(16, 8192);

@@ -35,7 +35,9 @@
 //! `cylinder = [r, height]` (along z), `bowl = [r, thickness]` or `[r, thickness, depth]`,
 //! `mesh = "file.obj"` (relative to the scene file; `scale` multiplies its coordinates).
 //! `rotation` is a rotation vector in degrees (axis × angle). `stats = "metal.stats.json"` makes
-//! a body sound from mode statistics instead of its modal model. Errors name the line and the
+//! a body sound from mode statistics instead of its modal model; `surface = "fractal"` (or a
+//! `.npy` height profile, with `surface_spacing` and `roughness` in m) makes sliding on it
+//! scrape by Traer's model. Errors name the line and the
 //! field.
 
 use serde::Deserialize;
@@ -158,6 +160,22 @@ pub struct BodyFile {
     /// Whether the body sounds.
     #[serde(default = "default_true")]
     pub sound: bool,
+    /// Surface texture for scraping (Traer §4): "fractal" or a `.npy` height profile (m).
+    #[serde(default)]
+    pub surface: Option<String>,
+    /// Sample spacing of the texture, m.
+    #[serde(default = "default_spacing")]
+    pub surface_spacing: f64,
+    /// RMS height of a fractal texture, m.
+    #[serde(default = "default_roughness")]
+    pub roughness: f64,
+}
+
+fn default_spacing() -> f64 {
+    1e-5
+}
+fn default_roughness() -> f64 {
+    5e-6
 }
 
 fn default_duration() -> f64 {
@@ -363,6 +381,20 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
                 key_line("scale"),
                 field("scale"),
                 format!("must be > 0, got {}", b.scale),
+            ));
+        }
+        if !(b.surface_spacing > 0.0
+            && b.surface_spacing < 0.01
+            && b.roughness > 0.0
+            && b.roughness < 0.01)
+        {
+            return Err(invalid(
+                key_line("surface_spacing"),
+                field("surface_spacing"),
+                format!(
+                    "surface_spacing and roughness must be in (0, 0.01) m, got {} and {}",
+                    b.surface_spacing, b.roughness
+                ),
             ));
         }
         if b.material.trim().is_empty() {

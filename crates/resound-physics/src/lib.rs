@@ -16,7 +16,8 @@
 //!   (silent: no droning). Sliding drives both bodies with a fractal (1/f) surface profile read
 //!   along the path, `F = μ_r F_n (v/1 m/s) n(s)`; rolling with the same profile low-passed at a
 //!   speed-dependent cut-off and modulated by the rolling body's rotation (van den Doel et al.
-//!   2001 style), at a third of the level.
+//!   2001 style), at a third of the level. A body with a `surface` texture slides by Traer's
+//!   scraping force instead (eq. 8: probe mass 0.1 g, shear coefficient μ F_n per m/s, γ = 1).
 //! - Both bodies of a contact sound; the excitation follows the nearest surface vertex of each.
 //!
 //! **Output**: each body's bank is rendered per step and placed at the listener with 1/r
@@ -95,6 +96,9 @@ pub struct BodySpec {
     pub friction: f64,
     /// Sound model (`None`: silent body).
     pub sound: Option<BodySound>,
+    /// A measured or procedural surface texture: sliding on (or with) this body excites by
+    /// Traer's scraping force (eq. 8) along this profile instead of the generic fractal noise.
+    pub surface: Option<std::sync::Arc<resound_synth::scrape::Surface>>,
 }
 
 /// Scene-wide settings.

@@ -532,7 +532,53 @@ pub fn simulate(
                 };
                 // Force amplitudes far below a micronewton are inaudible: no excitation.
                 let kind = kind.filter(|&(_, speed)| ROUGHNESS * normal_force * speed > 1e-6);
-                if let Some((kind, speed)) = kind {
+                let texture = bodies[i1].surface.as_ref().or(bodies[i2].surface.as_ref());
+                if let (Some((ContactKind::Sliding, speed)), Some(surface)) = (kind, texture) {
+                    // Traer's scraping force along the textured profile, with one sample of
+                    // context on either side so steps join without clicks.
+                    let start = state.path_m + state.offset_m;
+                    let xs: Vec<f64> = (0..n + 2)
+                        .map(|j| start + speed * (j as f64 - 1.0) / fs)
+                        .collect();
+                    let mu = 0.5 * (bodies[i1].friction + bodies[i2].friction);
+                    let p = resound_synth::scrape::ScrapeParams {
+                        probe_mass_kg: 1e-4,
+                        friction: mu * normal_force,
+                        gamma: 1.0,
+                        tip_width_m: 2e-4,
+                    };
+                    let f = resound_synth::scrape::scrape_force(surface, &xs, fs, &p);
+                    state.path_m += speed * n as f64 / fs;
+                    for &i in &[i1, i2] {
+                        excite(
+                            &mut voices[i],
+                            bodies,
+                            i,
+                            &world,
+                            handles[i],
+                            point,
+                            &f[1..=n],
+                            1.0,
+                            0,
+                        );
+                    }
+                    stats.sliding_steps += 1;
+                    let t = t_start + dt;
+                    if state.last_kind != Some(ContactKind::Sliding)
+                        || t - state.last_log_s >= LOG_INTERVAL_S
+                    {
+                        events.push(Event {
+                            time_s: t,
+                            bodies: names.clone(),
+                            kind: ContactKind::Sliding,
+                            force: normal_force,
+                            speed_m_s: speed,
+                            point,
+                        });
+                        state.last_log_s = t;
+                    }
+                    state.last_kind = Some(ContactKind::Sliding);
+                } else if let Some((kind, speed)) = kind {
                     step_force.clear();
                     step_force.resize(n, 0.0f32);
                     let roller = if bodies[i1].fixed { i2 } else { i1 };

@@ -45,6 +45,7 @@ fn floor() -> BodySpec {
         restitution: 0.6,
         friction: 0.4,
         sound: Some(sound(1.0)),
+        surface: None,
     }
 }
 
@@ -116,6 +117,13 @@ fn a_dropped_ball_bounces_on_free_fall_and_restitution_times() {
 }
 
 fn slide(speed: f64) -> (Vec<f32>, resound_physics::SceneStats) {
+    slide_on(speed, None)
+}
+
+fn slide_on(
+    speed: f64,
+    surface: Option<std::sync::Arc<resound_synth::scrape::Surface>>,
+) -> (Vec<f32>, resound_physics::SceneStats) {
     let half = 0.05;
     let cube = BodySpec {
         name: "box".into(),
@@ -130,7 +138,8 @@ fn slide(speed: f64) -> (Vec<f32>, resound_physics::SceneStats) {
     };
     let mut p = params(0.3);
     p.stereo = false;
-    let out = simulate(&[floor(), cube], &p, &|_| {}).unwrap();
+    let floor = BodySpec { surface, ..floor() };
+    let out = simulate(&[floor, cube], &p, &|_| {}).unwrap();
     (out.channels[0].clone(), out.stats)
 }
 
@@ -150,6 +159,23 @@ fn a_sliding_box_sounds_continuously_and_louder_when_faster() {
     let (a, b) = (rms(&slow[..fs / 10]), rms(&fast[..fs / 10]));
     eprintln!("sliding rms at 1 m/s {a:.3e}, at 3 m/s {b:.3e}; {s1:?}");
     assert!(b > 1.5 * a, "slow {a} fast {b}");
+}
+
+#[test]
+fn sliding_on_a_textured_surface_scrapes_louder_when_faster() {
+    let surface = std::sync::Arc::new(
+        resound_synth::scrape::Surface::fractal(1 << 16, 1e-5, 2.0, 5e-6, 2).unwrap(),
+    );
+    let (slow, s1) = slide_on(1.0, Some(surface.clone()));
+    let (fast, _) = slide_on(3.0, Some(surface));
+    assert!(s1.sliding_steps > 20, "{s1:?}");
+    let fs = 48_000;
+    let (a, b) = (rms(&slow[..fs / 10]), rms(&fast[..fs / 10]));
+    eprintln!("textured sliding rms at 1 m/s {a:.3e}, at 3 m/s {b:.3e}");
+    assert!(a > 0.0 && b > 1.5 * a, "slow {a} fast {b}");
+    // And it differs from the untextured sliding sound.
+    let (plain, _) = slide(1.0);
+    assert_ne!(plain, slow);
 }
 
 #[test]

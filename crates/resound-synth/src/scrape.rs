@@ -4,12 +4,15 @@
 //! The contact force (eq. 8) is
 //! `f(t) = m_p z̈ + A |ż|^γ`, with `z̈ = S''(x) v²` and `ż = S'(x) v` along a straight path.
 //! Both are formed from the sampled height track directly:
-//! - `z_n` is the profile averaged over the distance the probe covers in one sample, a boxcar
-//!   anti-alias filter: a 10 µm profile scraped at 1 m/s has detail far above Nyquist;
+//! - `z_n` is the profile averaged over the probe tip's width (0.2 mm by default: a tip cannot
+//!   follow narrower features) or the distance covered in one sample if that is wider (a boxcar
+//!   anti-alias filter: a 10 µm profile scraped at 1 m/s has detail far above Nyquist);
 //! - then `ż`, `z̈` are finite differences in time.
 //!
 //! Surfaces:
-//! - [`Surface::fractal`]: a procedural 1/f^β profile;
+//! - [`Surface::fractal`]: a procedural 1/f^β profile (we use β = 2, a Brownian profile: with
+//!   β = 1 the temporal spectrum of S(vt) is the same at every speed, so eq. 8 would not get
+//!   louder with speed; real surfaces are steeper than 1/f at these scales);
 //! - [`Surface::quilt`]: one-dimensional quilting of a measured profile (random segments
 //!   concatenated, each shifted to continue at the height where the last one ended and
 //!   cross-faded), as Traer quilt rows of a depth map.
@@ -180,6 +183,10 @@ pub struct ScrapeParams {
     pub friction: f64,
     /// Exponent γ.
     pub gamma: f64,
+    /// Width of the probe's tip, m: it cannot follow features narrower than this, so the height
+    /// it follows is the profile averaged over its width (a spatial low-pass whose temporal
+    /// cut-off, v / width, rises with speed: faster scrapes are brighter).
+    pub tip_width_m: f64,
 }
 
 impl Default for ScrapeParams {
@@ -188,6 +195,7 @@ impl Default for ScrapeParams {
             probe_mass_kg: 0.01,
             friction: 100.0,
             gamma: 1.0,
+            tip_width_m: 2e-4,
         }
     }
 }
@@ -204,13 +212,18 @@ pub fn scrape_force(
     if n < 3 {
         return vec![0.0; n];
     }
-    // Height track, box-averaged over each sample's travel.
+    // Height track: the profile averaged over the tip's width or the sample's travel, whichever
+    // is wider (the tip's low-pass, and a boxcar against aliasing).
+    let half_tip = 0.5 * p.tip_width_m.max(0.0);
     let z: Vec<f64> = (0..n)
         .map(|i| {
             let prev = if i > 0 { x_m[i - 1] } else { x_m[i] };
             let next = if i + 1 < n { x_m[i + 1] } else { x_m[i] };
             let (a, b) = (0.5 * (prev + x_m[i]), 0.5 * (x_m[i] + next));
-            surface.mean_over(a.min(b), a.max(b))
+            let (lo, hi) = (a.min(b), a.max(b));
+            let half = (0.5 * (hi - lo)).max(half_tip);
+            let c = 0.5 * (lo + hi);
+            surface.mean_over(c - half, c + half)
         })
         .collect();
     let t = 1.0 / sample_rate_hz;
@@ -346,7 +359,7 @@ mod tests {
     #[test]
     fn a_faster_scrape_is_louder_and_brighter() {
         let fs = 48_000.0;
-        let surface = Surface::fractal(1 << 16, 1e-5, 1.0, 5e-6, 3).unwrap();
+        let surface = Surface::fractal(1 << 16, 1e-5, 2.0, 5e-6, 3).unwrap();
         let modes: Vec<BankMode> = [300.0, 900.0, 2100.0, 4700.0, 9800.0]
             .iter()
             .map(|&f| BankMode {

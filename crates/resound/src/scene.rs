@@ -319,6 +319,28 @@ fn stats_sound(
     })
 }
 
+/// The body's surface texture, if it has one: `"fractal"` or a `.npy` height profile (quilted).
+fn surface_of(
+    b: &BodyFile,
+    base_dir: &Path,
+    seed: u64,
+) -> Result<Option<std::sync::Arc<resound_synth::scrape::Surface>>, String> {
+    use resound_synth::scrape::Surface;
+    let Some(spec) = &b.surface else {
+        return Ok(None);
+    };
+    let s = if spec == "fractal" {
+        Surface::fractal(1 << 18, b.surface_spacing, 2.0, b.roughness, seed)
+    } else {
+        let path = base_dir.join(spec);
+        let h = resound_io::npy::read_npy_f64(&path).map_err(|e| e.to_string())?;
+        let patch = (h.len() / 8).clamp(16, 8192);
+        Surface::quilt(&h, b.surface_spacing, h.len().max(1 << 18), patch, seed)
+    }
+    .map_err(|e| format!("surface {spec:?}: {e}"))?;
+    Ok(Some(std::sync::Arc::new(s)))
+}
+
 /// Builds the bodies and settings of `scene`.
 pub fn build_scene(
     scene: &SceneFile,
@@ -373,6 +395,7 @@ pub fn build_scene(
             restitution: b.restitution,
             friction: b.friction,
             sound,
+            surface: surface_of(b, opts.base_dir, scene.seed + i as u64).map_err(fail)?,
         });
     }
     let params = SceneParams {
