@@ -932,7 +932,7 @@ fn pyimpact_tables_import_and_render_their_own_frequencies() {
     );
     assert!(!d.join("z.wav").exists());
     // A scene body can sound from the statistics instead of a modal model.
-    let scene = "duration = 0.6\n[[body]]\nname = \"floor\"\nfixed = true\nsound = false\nshape = { box = [0.5, 0.04, 0.5] }\nmaterial = \"preset:wood\"\ndensity = 700\nposition = [0, -0.02, 0]\n[[body]]\nname = \"can\"\nshape = { sphere = 0.03 }\nmaterial = \"preset:steel\"\nstats = \"st/metal_3.stats.json\"\ndensity = 7850\nposition = [0, 0.2, 0]\n";
+    let scene = "duration = 0.6\n[[body]]\nname = \"floor\"\nfixed = true\nsound = false\nshape = { box = [0.5, 0.04, 0.5] }\nmaterial = \"preset:wood\"\ndensity = 700\nposition = [0, -0.02, 0]\n[[body]]\nname = \"can\"\nshape = { sphere = 0.03 }\nmaterial = \"preset:steel\"\nsound = { stats = \"st/metal_3.stats.json\" }\ndensity = 7850\nposition = [0, 0.2, 0]\n";
     std::fs::write(d.join("st.toml"), scene).unwrap();
     let v: Value = serde_json::from_str(&ok(&resound(
         &[

@@ -34,8 +34,9 @@
 //! Shapes: `box = [x, y, z]`, `plate = [x, y, thickness]` (full sizes), `sphere = r`,
 //! `cylinder = [r, height]` (along z), `bowl = [r, thickness]` or `[r, thickness, depth]`,
 //! `mesh = "file.obj"` (relative to the scene file; `scale` multiplies its coordinates).
-//! `rotation` is a rotation vector in degrees (axis × angle). `stats = "metal.stats.json"` makes
-//! a body sound from mode statistics instead of its modal model; `surface = "fractal"` (or a
+//! `rotation` is a rotation vector in degrees (axis × angle). `sound = { stats =
+//! "metal.stats.json" }` (or `stats = "…"`) makes a body sound from mode statistics instead of
+//! its modal model, `sound = false` silences it; `surface = "fractal"` (or a
 //! `.npy` height profile, with `surface_spacing` and `roughness` in m) makes sliding on it
 //! scrape by Traer's model. Errors name the line and the
 //! field.
@@ -106,6 +107,41 @@ pub enum ShapeFile {
     Mesh(String),
 }
 
+/// A body's `sound` field.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum SoundFile {
+    /// Sounds from its modal model (`true`) or not at all (`false`).
+    Flag(bool),
+    /// Sounds from mode statistics.
+    Stats {
+        /// The `.stats.json` file.
+        stats: String,
+    },
+}
+
+impl Default for SoundFile {
+    fn default() -> Self {
+        SoundFile::Flag(true)
+    }
+}
+
+impl BodyFile {
+    /// Whether the body sounds at all.
+    pub fn sounds(&self) -> bool {
+        !matches!(self.sound, SoundFile::Flag(false))
+    }
+
+    /// The statistics file the body sounds from, if any (`sound = { stats = … }` or `stats`).
+    pub fn stats_file(&self) -> Option<&str> {
+        match &self.sound {
+            SoundFile::Stats { stats } => Some(stats),
+            SoundFile::Flag(true) => self.stats.as_deref(),
+            SoundFile::Flag(false) => None,
+        }
+    }
+}
+
 /// One body.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -157,9 +193,10 @@ pub struct BodyFile {
     /// Mesh coordinate scale.
     #[serde(default = "default_scale")]
     pub scale: f64,
-    /// Whether the body sounds.
-    #[serde(default = "default_true")]
-    pub sound: bool,
+    /// Whether and how the body sounds: `true` (its modal model), `false`, or
+    /// `{ stats = "metal.stats.json" }` (Traer's statistical model, like the `stats` field).
+    #[serde(default)]
+    pub sound: SoundFile,
     /// Surface texture for scraping (Traer §4): "fractal" or a `.npy` height profile (m).
     #[serde(default)]
     pub surface: Option<String>,
@@ -476,6 +513,26 @@ position = [0, 0.3, 0]
             (ball.modes, ball.restitution, s.sample_rate),
             (32, 0.5, 48_000)
         );
+    }
+
+    #[test]
+    fn sound_takes_a_flag_or_statistics() {
+        let s = parse_scene(
+            &GOOD.replace(
+                "density = 7850",
+                "density = 7850\nsound = { stats = \"m.stats.json\" }",
+            ),
+            "s.toml",
+        )
+        .unwrap();
+        assert_eq!(s.body[1].get_ref().stats_file(), Some("m.stats.json"));
+        let s = parse_scene(
+            &GOOD.replace("density = 7850", "density = 7850\nsound = false"),
+            "s.toml",
+        )
+        .unwrap();
+        assert!(!s.body[1].get_ref().sounds());
+        assert!(s.body[0].get_ref().sounds() && s.body[0].get_ref().stats_file().is_none());
     }
 
     #[test]

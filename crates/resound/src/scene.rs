@@ -358,7 +358,7 @@ pub fn build_scene(
         let material = resolve_material(&b.material, opts.base_dir, opts.library).map_err(fail)?;
         material.validate().map_err(fail)?;
         let (mesh, shape) = geometry(b, opts.base_dir).map_err(fail)?;
-        let sound = if let (true, Some(stats)) = (b.sound, &b.stats) {
+        let sound = if let Some(stats) = b.stats_file() {
             Some(
                 stats_sound(
                     &opts.base_dir.join(stats),
@@ -370,7 +370,7 @@ pub fn build_scene(
                 )
                 .map_err(fail)?,
             )
-        } else if b.sound {
+        } else if b.sounds() {
             let elastic = Material {
                 name: "custom".into(),
                 youngs_modulus: material.gamma * b.density,
