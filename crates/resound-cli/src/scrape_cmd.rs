@@ -209,11 +209,7 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
             level.peak_before, -level.gain_db
         );
     }
-    let format = match a.format {
-        FormatArg::Pcm16 => WavFormat::Pcm16,
-        FormatArg::Pcm24 => WavFormat::Pcm24,
-        FormatArg::Float => WavFormat::Float32,
-    };
+    let format = WavFormat::from(a.format);
     write_wav(&a.output, &out, a.sample_rate, format)?;
     let path_m = x
         .iter()

@@ -36,6 +36,26 @@ pub enum FormatArg {
     Float,
 }
 
+impl From<ContactArg> for ContactModel {
+    fn from(c: ContactArg) -> Self {
+        match c {
+            ContactArg::Hertz => ContactModel::Hertz,
+            ContactArg::Spring => ContactModel::Spring,
+            ContactArg::Impulse => ContactModel::Impulse,
+        }
+    }
+}
+
+impl From<FormatArg> for WavFormat {
+    fn from(f: FormatArg) -> Self {
+        match f {
+            FormatArg::Pcm16 => WavFormat::Pcm16,
+            FormatArg::Pcm24 => WavFormat::Pcm24,
+            FormatArg::Float => WavFormat::Float32,
+        }
+    }
+}
+
 /// Arguments of `synth`.
 #[derive(Args, Debug)]
 pub struct SynthArgs {
@@ -164,11 +184,7 @@ pub fn run(a: SynthArgs) -> Result<()> {
             level.peak_before, -level.gain_db
         );
     }
-    let format = match a.format {
-        FormatArg::Pcm16 => WavFormat::Pcm16,
-        FormatArg::Pcm24 => WavFormat::Pcm24,
-        FormatArg::Float => WavFormat::Float32,
-    };
+    let format = WavFormat::from(a.format);
     write_wav(&a.output, &out, a.sample_rate, format)?;
     if a.play {
         let mut live = live;
@@ -277,11 +293,7 @@ fn render_stats(
         object_mass_kg: None,
         speed_m_s: a.velocity,
     };
-    let model_kind = match a.contact {
-        ContactArg::Hertz => ContactModel::Hertz,
-        ContactArg::Spring => ContactModel::Spring,
-        ContactArg::Impulse => ContactModel::Impulse,
-    };
+    let model_kind = ContactModel::from(a.contact);
     let force = impact.force_pulse(model_kind, fs, 0.0)?;
     let mut bm = bank_modes(&modes);
     bm.iter_mut()
@@ -354,11 +366,7 @@ fn render_material(a: &SynthArgs, fs: f64, samples: usize) -> Result<Rendered> {
         object_mass_kg: None,
         speed_m_s: a.velocity,
     };
-    let model_kind = match a.contact {
-        ContactArg::Hertz => ContactModel::Hertz,
-        ContactArg::Spring => ContactModel::Spring,
-        ContactArg::Impulse => ContactModel::Impulse,
-    };
+    let model_kind = ContactModel::from(a.contact);
     let force = impact.force_pulse(model_kind, fs, 0.0)?;
     let j_ref = reference_impulse_n_s();
     // Gains per N·s: σa⁰ is the recording's level for the reference impact.

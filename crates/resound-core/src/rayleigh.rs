@@ -72,6 +72,41 @@ pub struct Residual {
     pub source_modes: Vec<DampedMode>,
 }
 
+/// The forward model shared by synthesis and estimation (Ren eqs. 6–11): λ = scale·λ⁰,
+/// d = `decay(i, λ)`, f = √(λ − d²)/2π, a = σ·|a⁰| with a negative a⁰ as phase π. Over-damped
+/// modes and modes at or above `max_freq_hz` are left out; sorted by frequency.
+pub fn damped_modes(
+    eigenvalues0: &[f64],
+    gains0: &[f64],
+    scale: f64,
+    sigma: f64,
+    decay: &dyn Fn(usize, f64) -> f64,
+    max_freq_hz: f64,
+) -> Vec<DampedMode> {
+    let mut out: Vec<DampedMode> = eigenvalues0
+        .iter()
+        .zip(gains0)
+        .enumerate()
+        .filter_map(|(i, (&l0, &a0))| {
+            let lambda = scale * l0;
+            let d = decay(i, lambda);
+            let w2 = lambda - d * d;
+            if !(w2 > 0.0) {
+                return None;
+            }
+            let f = w2.sqrt() / std::f64::consts::TAU;
+            (f < max_freq_hz).then(|| DampedMode {
+                freq_hz: f,
+                damping_per_s: d,
+                amplitude: sigma * a0.abs(),
+                phase_rad: if a0 < 0.0 { std::f64::consts::PI } else { 0.0 },
+            })
+        })
+        .collect();
+    out.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    out
+}
+
 /// How modes lose energy: d_i as a function of the undamped ω_i.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Damping {
@@ -146,33 +181,20 @@ impl SoundMaterial {
         max_freq_hz: f64,
     ) -> Vec<DampedMode> {
         let damping = self.damping();
-        let scale = self.gamma / gamma0;
-        let mut out: Vec<DampedMode> = eigenvalues0
-            .iter()
-            .zip(gains0)
-            .enumerate()
-            .filter_map(|(i, (&l0, &a0))| {
-                let lambda = scale * l0;
-                let d = self
-                    .mode_damping
-                    .iter()
-                    .find(|o| o.mode == i)
-                    .map_or_else(|| damping.damping_per_s(lambda), |o| o.damping_per_s);
-                let w2 = lambda - d * d;
-                if !(w2 > 0.0) {
-                    return None;
-                }
-                let f = w2.sqrt() / std::f64::consts::TAU;
-                (f < max_freq_hz).then(|| DampedMode {
-                    freq_hz: f,
-                    damping_per_s: d,
-                    amplitude: self.sigma * a0.abs(),
-                    phase_rad: if a0 < 0.0 { std::f64::consts::PI } else { 0.0 },
-                })
-            })
-            .collect();
-        out.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
-        out
+        let decay = |i: usize, lambda: f64| {
+            self.mode_damping
+                .iter()
+                .find(|o| o.mode == i)
+                .map_or_else(|| damping.damping_per_s(lambda), |o| o.damping_per_s)
+        };
+        damped_modes(
+            eigenvalues0,
+            gains0,
+            self.gamma / gamma0,
+            self.sigma,
+            &decay,
+            max_freq_hz,
+        )
     }
 
     /// Checks the values: finite, α, β ≥ 0, γ, σ > 0, a known damping model, a usable name.

@@ -51,28 +51,15 @@ pub fn forward_modes(
     p: &RayleighParams,
     max_freq_hz: f64,
 ) -> Vec<DampedMode> {
-    let scale = p.gamma / gamma0;
-    let mut out: Vec<DampedMode> = eigenvalues0
-        .iter()
-        .zip(gains0)
-        .filter_map(|(&l0, &a0)| {
-            let lambda = scale * l0;
-            let d = 0.5 * (p.alpha + p.beta * lambda);
-            let w2 = lambda - d * d;
-            if !(w2 > 0.0) {
-                return None;
-            }
-            let f = w2.sqrt() / std::f64::consts::TAU;
-            (f < max_freq_hz).then(|| DampedMode {
-                freq_hz: f,
-                damping_per_s: d,
-                amplitude: p.sigma * a0.abs(),
-                phase_rad: if a0 < 0.0 { std::f64::consts::PI } else { 0.0 },
-            })
-        })
-        .collect();
-    out.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
-    out
+    let decay = |_: usize, lambda: f64| 0.5 * (p.alpha + p.beta * lambda);
+    resound_core::rayleigh::damped_modes(
+        eigenvalues0,
+        gains0,
+        p.gamma / gamma0,
+        p.sigma,
+        &decay,
+        max_freq_hz,
+    )
 }
 
 #[cfg(test)]
