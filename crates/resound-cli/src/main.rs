@@ -10,6 +10,7 @@ mod analyze_cmd;
 mod bench;
 mod demo_cmd;
 mod estimate_cmd;
+mod grains_cmd;
 mod live;
 mod mesh_cmd;
 mod modal_cmd;
@@ -58,6 +59,9 @@ enum Command {
     /// Per-material mode statistics (Traer 2019): fit to recordings, import PyImpact tables.
     #[command(subcommand)]
     Stats(stats_cmd::StatsCmd),
+    /// Grains (Picard 2009): cut recordings into grains and correlation patterns, rebuild or time-scale them.
+    #[command(subcommand)]
+    Grains(grains_cmd::GrainsCmd),
     /// Inspect a saved modal model, optionally rescaled to another material or at a hit point.
     Model(modal_cmd::ModelInfoArgs),
     /// Run the benchmarks and print their figures (table or JSON).
@@ -82,6 +86,7 @@ fn main() -> ExitCode {
         Command::Scene(a) => scene_cmd::run(a),
         Command::Stats(c) => stats_cmd::run(c),
         Command::Scrape(a) => scrape_cmd::run(a),
+        Command::Grains(c) => grains_cmd::run(c),
         Command::Bench(c) => bench::run(c),
         Command::BenchCase(a) => bench::run_case(a),
     };

@@ -9,11 +9,13 @@
 //! | modal model | `.rmodal` | versioned little-endian binary with a checksum ([`model_file`]) |
 //! | matrices | Matrix Market `.mtx` | `coordinate real symmetric` (lower triangle) |
 //! | material | `.json` material files; SQLite material library ([`library`]) |
+//! | grain dictionary | `.grains` | grains (16-bit) and correlation patterns, checksummed ([`grains_file`]) |
 //! | audio | `.wav` (PCM 8/16/24/32, float 32/64), `.flac`, `.ogg` (Vorbis), `.mp3` | read via Symphonia; WAV written via hound |
 #![warn(missing_docs)]
 
 pub mod atomic;
 pub mod audio;
+pub mod grains_file;
 pub mod library;
 pub mod mesh;
 pub mod model_file;

@@ -28,7 +28,7 @@ const MAGIC: &[u8; 8] = b"RSMODAL\0";
 /// Current format version.
 pub const VERSION: u32 = 1;
 
-fn fnv1a(data: &[u8]) -> u64 {
+pub(crate) fn fnv1a(data: &[u8]) -> u64 {
     let mut h = 0xcbf2_9ce4_8422_2325u64;
     for &b in data {
         h ^= b as u64;
@@ -79,26 +79,26 @@ pub fn encode(m: &ModalModel) -> Vec<u8> {
     b
 }
 
-struct R<'a> {
-    d: &'a [u8],
-    p: usize,
+pub(crate) struct R<'a> {
+    pub(crate) d: &'a [u8],
+    pub(crate) p: usize,
 }
 
 impl<'a> R<'a> {
-    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+    pub(crate) fn take(&mut self, n: usize) -> Option<&'a [u8]> {
         let s = self.d.get(self.p..self.p.checked_add(n)?)?;
         self.p += n;
         Some(s)
     }
-    fn u32(&mut self) -> Option<u32> {
+    pub(crate) fn u32(&mut self) -> Option<u32> {
         self.take(4)
             .map(|s| u32::from_le_bytes(s.try_into().unwrap_or([0; 4])))
     }
-    fn u64(&mut self) -> Option<u64> {
+    pub(crate) fn u64(&mut self) -> Option<u64> {
         self.take(8)
             .map(|s| u64::from_le_bytes(s.try_into().unwrap_or([0; 8])))
     }
-    fn f64s(&mut self, n: usize) -> Option<Vec<f64>> {
+    pub(crate) fn f64s(&mut self, n: usize) -> Option<Vec<f64>> {
         let s = self.take(n.checked_mul(8)?)?;
         Some(
             s.chunks_exact(8)

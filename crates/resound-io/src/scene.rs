@@ -36,7 +36,9 @@
 //! `mesh = "file.obj"` (relative to the scene file; `scale` multiplies its coordinates).
 //! `rotation` is a rotation vector in degrees (axis × angle). `sound = { stats =
 //! "metal.stats.json" }` (or `stats = "…"`) makes a body sound from mode statistics instead of
-//! its modal model, `sound = false` silences it; `surface = "fractal"` (or a
+//! its modal model, `sound = { grains = "stone.grains", gain = 1.0 }` from recorded grains
+//! retargeted to its contacts (`resound grains analyze`), `sound = false` silences it;
+//! `surface = "fractal"` (or a
 //! `.npy` height profile, with `surface_spacing` and `roughness` in m) makes sliding on it
 //! scrape by Traer's model. Errors name the line and the
 //! field.
@@ -118,6 +120,18 @@ pub enum SoundFile {
         /// The `.stats.json` file.
         stats: String,
     },
+    /// Sounds from recorded grains (Picard 2009) retargeted to its contacts.
+    Grains {
+        /// The `.grains` dictionary (`resound grains analyze`).
+        grains: String,
+        /// Level factor.
+        #[serde(default = "default_gain")]
+        gain: f64,
+    },
+}
+
+fn default_gain() -> f64 {
+    1.0
 }
 
 impl Default for SoundFile {
@@ -137,7 +151,16 @@ impl BodyFile {
         match &self.sound {
             SoundFile::Stats { stats } => Some(stats),
             SoundFile::Flag(true) => self.stats.as_deref(),
-            SoundFile::Flag(false) => None,
+            SoundFile::Flag(false) | SoundFile::Grains { .. } => None,
+        }
+    }
+
+    /// The grain dictionary the body sounds from and its gain, if any
+    /// (`sound = { grains = …, gain = … }`).
+    pub fn grains_file(&self) -> Option<(&str, f64)> {
+        match &self.sound {
+            SoundFile::Grains { grains, gain } => Some((grains, *gain)),
+            _ => None,
         }
     }
 }
@@ -420,6 +443,15 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
                 format!("must be > 0, got {}", b.scale),
             ));
         }
+        if let Some((_, gain)) = b.grains_file() {
+            if !(gain.is_finite() && gain >= 0.0) {
+                return Err(invalid(
+                    key_line("sound"),
+                    field("sound.gain"),
+                    format!("must be ≥ 0, got {gain}"),
+                ));
+            }
+        }
         if !(b.surface_spacing > 0.0
             && b.surface_spacing < 0.01
             && b.roughness > 0.0
@@ -533,6 +565,28 @@ position = [0, 0.3, 0]
         .unwrap();
         assert!(!s.body[1].get_ref().sounds());
         assert!(s.body[0].get_ref().sounds() && s.body[0].get_ref().stats_file().is_none());
+        let s = parse_scene(
+            &GOOD.replace(
+                "density = 7850",
+                "density = 7850\nsound = { grains = \"stone.grains\", gain = 0.5 }",
+            ),
+            "s.toml",
+        )
+        .unwrap();
+        assert_eq!(
+            s.body[1].get_ref().grains_file(),
+            Some(("stone.grains", 0.5))
+        );
+        let e = parse_scene(
+            &GOOD.replace(
+                "density = 7850",
+                "density = 7850\nsound = { grains = \"stone.grains\", gain = -1 }",
+            ),
+            "s.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("sound.gain"), "{e}");
     }
 
     #[test]

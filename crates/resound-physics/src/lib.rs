@@ -19,6 +19,11 @@
 //!   2001 style), at a third of the level. A body with a `surface` texture slides by Traer's
 //!   scraping force instead (eq. 8: probe mass 0.1 g, shear coefficient μ F_n per m/s, γ = 1).
 //! - Both bodies of a contact sound; the excitation follows the nearest surface vertex of each.
+//! - A body with recorded *grains* ([`GrainSound`], Picard 2009 §4.2) also plays them: an impulsive
+//!   phrase at each impact's force peak, scaled by the impulse; while it slides or rolls,
+//!   continuous grains from a sliding or rolling recording, scaled by the contact power (normal
+//!   force × speed) and pitched by the speed. Grains follow each other at their own pace between
+//!   physics steps.
 //!
 //! **Output**: each body's bank is rendered per step and placed at the listener with 1/r
 //! distance attenuation (1 at 1 m, capped at 10 cm), the propagation delay r/343 m/s, and an
@@ -99,6 +104,18 @@ pub struct BodySpec {
     /// A measured or procedural surface texture: sliding on (or with) this body excites by
     /// Traer's scraping force (eq. 8) along this profile instead of the generic fractal noise.
     pub surface: Option<std::sync::Arc<resound_synth::scrape::Surface>>,
+    /// Recorded grains retargeted to this body's contacts (Picard 2009 §4.2), besides or instead
+    /// of its modal sound.
+    pub grains: Option<GrainSound>,
+}
+
+/// A body that sounds from recorded grains.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GrainSound {
+    /// The grain dictionary.
+    pub dictionary: std::sync::Arc<resound_grains::Dictionary>,
+    /// Levels, pitch scaling, variation and seed.
+    pub params: resound_grains::player::PlayerParams,
 }
 
 /// Scene-wide settings.

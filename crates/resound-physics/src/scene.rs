@@ -4,6 +4,8 @@ use crate::texture::{at, fractal_profile};
 use crate::{BodySpec, SceneError, SceneParams, Shape};
 use rapier3d::parry::query::distance;
 use rapier3d::prelude::*;
+use resound_grains::player::GrainPlayer;
+use resound_grains::Contact;
 use resound_synth::bank::{BankMode, ModalBank};
 use resound_synth::excitation::{ContactModel, Impact};
 use serde::Serialize;
@@ -331,6 +333,22 @@ pub fn simulate(
             None => None,
         });
     }
+    let mut players: Vec<Option<GrainPlayer>> = Vec::with_capacity(bodies.len());
+    for b in bodies {
+        players.push(match &b.grains {
+            Some(g) => Some(
+                GrainPlayer::new(g.dictionary.clone(), fs, g.params.clone()).map_err(|e| {
+                    SceneError::Body {
+                        name: b.name.clone(),
+                        message: format!("grains: {e}"),
+                    }
+                })?,
+            ),
+            None => None,
+        });
+    }
+    // Per body and step: the strongest continuous contact (kind, power W, speed m/s).
+    let mut continuous: Vec<Option<(Contact, f64, f64)>> = vec![None; bodies.len()];
     let profile = fractal_profile(1 << 17, 1.0, params.seed);
     let total = (params.duration_s * fs).round() as usize;
     let n_channels = if params.stereo { 2 } else { 1 };
@@ -342,7 +360,6 @@ pub fn simulate(
     let mut buf = Vec::new();
     let mut step_force = Vec::new();
     let radii: Vec<f64> = bodies.iter().map(|b| contact_radius(&b.shape)).collect();
-    let listener = params.listener;
     let mut last_progress = 0.0;
     for step in 0..steps {
         let t_start = step as f64 * dt;
@@ -364,6 +381,7 @@ pub fn simulate(
             })
             .collect();
         world.step();
+        continuous.iter_mut().for_each(|c| *c = None);
         let mut now_active: HashMap<(u32, u32), PairState> = HashMap::new();
         for pair in world.narrow_phase.contact_pairs() {
             let PairContacts::Rigid(r) = &pair.contacts else {
@@ -485,6 +503,11 @@ pub fn simulate(
                         };
                         let at_sample = (first as usize).saturating_sub(s0);
                         for &i in &[i1, i2] {
+                            if let Some(p) = players[i].as_mut() {
+                                p.impact(at_sample, impulse);
+                            }
+                        }
+                        for &i in &[i1, i2] {
                             excite(
                                 &mut voices[i],
                                 bodies,
@@ -532,6 +555,19 @@ pub fn simulate(
                 };
                 // Force amplitudes far below a micronewton are inaudible: no excitation.
                 let kind = kind.filter(|&(_, speed)| ROUGHNESS * normal_force * speed > 1e-6);
+                if let Some((k, speed)) = kind {
+                    let c = if k == ContactKind::Rolling {
+                        Contact::Rolling
+                    } else {
+                        Contact::Sliding
+                    };
+                    let power = normal_force * speed;
+                    for &i in &[i1, i2] {
+                        if continuous[i].is_none_or(|(_, p, _)| p < power) {
+                            continuous[i] = Some((c, power, speed));
+                        }
+                    }
+                }
                 let texture = bodies[i1].surface.as_ref().or(bodies[i2].surface.as_ref());
                 if let (Some((ContactKind::Sliding, speed)), Some(surface)) = (kind, texture) {
                     // Traer's scraping force along the textured profile, with one sample of
@@ -673,31 +709,21 @@ pub fn simulate(
                 continue;
             }
             sounding += 1;
-            let pos = world.bodies[handles[i]].translation();
-            let d = [
-                f64::from(pos.x) - listener[0],
-                f64::from(pos.y) - listener[1],
-                f64::from(pos.z) - listener[2],
-            ];
-            let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            let g = 1.0 / r.max(0.1);
-            let delay = (r / SPEED_OF_SOUND * fs).round() as usize;
-            let gains: [f64; 2] = if params.stereo {
-                let p = (d[0] / r.max(1e-9)).clamp(-1.0, 1.0);
-                [g * (0.5 * (1.0 - p)).sqrt(), g * (0.5 * (1.0 + p)).sqrt()]
-            } else {
-                [g, 0.0]
-            };
-            for (c, ch) in channels.iter_mut().enumerate() {
-                let gc = gains[c] as f32;
-                let start = s0 + delay;
-                if start >= total {
-                    continue;
-                }
-                for (o, &x) in ch[start..(start + n).min(total)].iter_mut().zip(&buf) {
-                    *o += x * gc;
-                }
+            let pos = arr(world.bodies[handles[i]].translation());
+            place(&mut channels, &buf, s0, pos, params);
+        }
+        for (i, p) in players.iter_mut().enumerate() {
+            let Some(p) = p else { continue };
+            p.set_contact(continuous[i]);
+            if p.is_silent() {
+                continue;
             }
+            buf.clear();
+            buf.resize(n, 0.0f32);
+            p.process(&mut buf);
+            sounding += 1;
+            let pos = arr(world.bodies[handles[i]].translation());
+            place(&mut channels, &buf, s0, pos, params);
         }
         stats.max_voices = stats.max_voices.max(sounding);
         stats.audio_s += ta.elapsed().as_secs_f64();
@@ -713,6 +739,39 @@ pub fn simulate(
         events,
         stats,
     })
+}
+
+/// Mixes a source's block `buf` (starting at sample `s0`) at `pos` into the output: 1/r
+/// attenuation, propagation delay, equal-power pan.
+fn place(channels: &mut [Vec<f32>], buf: &[f32], s0: usize, pos: [f64; 3], params: &SceneParams) {
+    let fs = params.sample_rate_hz;
+    let listener = params.listener;
+    let total = channels.first().map_or(0, Vec::len);
+    let d = [
+        pos[0] - listener[0],
+        pos[1] - listener[1],
+        pos[2] - listener[2],
+    ];
+    let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let g = 1.0 / r.max(0.1);
+    let delay = (r / SPEED_OF_SOUND * fs).round() as usize;
+    let gains: [f64; 2] = if params.stereo {
+        let p = (d[0] / r.max(1e-9)).clamp(-1.0, 1.0);
+        [g * (0.5 * (1.0 - p)).sqrt(), g * (0.5 * (1.0 + p)).sqrt()]
+    } else {
+        [g, 0.0]
+    };
+    let start = s0 + delay;
+    if start >= total {
+        return;
+    }
+    let end = (start + buf.len()).min(total);
+    for (c, ch) in channels.iter_mut().enumerate() {
+        let gc = gains[c] as f32;
+        for (o, &x) in ch[start..end].iter_mut().zip(buf) {
+            *o += x * gc;
+        }
+    }
 }
 
 /// Adds `force × scale` to body `i`'s force ring from `at_sample` on, with the gains of the

@@ -46,6 +46,7 @@ fn floor() -> BodySpec {
         friction: 0.4,
         sound: Some(sound(1.0)),
         surface: None,
+        grains: None,
     }
 }
 
@@ -244,4 +245,96 @@ fn bad_bodies_and_settings_are_named() {
         .to_string()
         .contains("fixed"));
     assert!(simulate(&[floor()], &params(-1.0), &|_| {}).is_err());
+}
+
+/// A grain dictionary of a synthetic knock recording and a synthetic rolling/sliding one.
+fn grains() -> resound_physics::GrainSound {
+    use resound_grains::{analyze, Contact, Recording};
+    let fs = 48_000.0;
+    let mut seed = 1u64;
+    let mut noise = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    let knocks: Vec<f32> = (0..24_000)
+        .map(|i| {
+            let t = (i % 6000) as f64 / fs;
+            ((0.5 * (std::f64::consts::TAU * 1800.0 * t).sin() + noise()) * (-t * 60.0).exp())
+                as f32
+        })
+        .collect();
+    let slide: Vec<f32> = (0..48_000)
+        .map(|i| {
+            let t = i as f64 / fs;
+            (0.1 * (std::f64::consts::TAU * 800.0 * t).sin() + 0.2 * noise()) as f32
+        })
+        .collect();
+    let recs = [
+        Recording {
+            name: "knocks".into(),
+            contact: Contact::Impact,
+            samples: knocks,
+        },
+        Recording {
+            name: "slide".into(),
+            contact: Contact::Sliding,
+            samples: slide,
+        },
+    ];
+    let (dictionary, _) = analyze(&recs, fs, &Default::default(), &|_, _| {}).unwrap();
+    resound_physics::GrainSound {
+        dictionary: std::sync::Arc::new(dictionary),
+        params: Default::default(),
+    }
+}
+
+#[test]
+fn grains_are_silent_without_contacts_and_grow_with_contact_power() {
+    let silent_floor = BodySpec {
+        sound: None,
+        ..floor()
+    };
+    // Falling freely for 0.25 s, then hitting the floor.
+    let ball = BodySpec {
+        name: "ball".into(),
+        shape: Shape::Ball(0.03),
+        fixed: false,
+        density: 7800.0,
+        position: [0.0, 0.33, 0.0],
+        sound: None,
+        grains: Some(grains()),
+        ..floor()
+    };
+    let out = simulate(&[silent_floor.clone(), ball], &params(0.4), &|_| {}).unwrap();
+    let t_hit = out.events.first().map(|e| e.time_s).unwrap();
+    let fs = 48_000.0;
+    let hit = (t_hit * fs) as usize;
+    assert!(t_hit > 0.2, "hit at {t_hit}");
+    assert!(out.channels[0][..hit - 100].iter().all(|&v| v == 0.0));
+    assert!(rms(&out.channels[0][hit..hit + 4800]) > 1e-3);
+    // Sliding: louder with more contact power (faster).
+    let slide = |speed: f64| {
+        let cube = BodySpec {
+            name: "box".into(),
+            shape: Shape::Cuboid([0.05; 3]),
+            fixed: false,
+            density: 500.0,
+            position: [0.0, 0.05, 0.0],
+            linvel: [speed, 0.0, 0.0],
+            friction: 0.2,
+            sound: None,
+            grains: Some(grains()),
+            ..floor()
+        };
+        let mut p = params(0.3);
+        p.stereo = false;
+        let out = simulate(&[silent_floor.clone(), cube], &p, &|_| {}).unwrap();
+        assert!(out.stats.sliding_steps > 20);
+        rms(&out.channels[0][2400..12_000])
+    };
+    let (slow, fast) = (slide(1.0), slide(3.0));
+    eprintln!("grain sliding rms {slow:.3e} at 1 m/s, {fast:.3e} at 3 m/s");
+    assert!(slow > 0.0 && fast > 2.0 * slow, "{slow} → {fast}");
 }

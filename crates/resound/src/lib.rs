@@ -12,6 +12,7 @@
 pub use resound_core as core;
 pub use resound_estimate as estimate;
 pub use resound_fem as fem;
+pub use resound_grains as grains;
 pub use resound_io as io;
 pub use resound_modal as modal;
 pub use resound_physics as physics;

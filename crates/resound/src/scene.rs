@@ -348,6 +348,10 @@ pub fn build_scene(
 ) -> Result<(Vec<BodySpec>, SceneParams), SceneBuildError> {
     let fs = f64::from(scene.sample_rate);
     let mut bodies = Vec::with_capacity(scene.body.len());
+    let mut loaded: std::collections::HashMap<
+        std::path::PathBuf,
+        std::sync::Arc<resound_grains::Dictionary>,
+    > = std::collections::HashMap::new();
     for (i, spanned) in scene.body.iter().enumerate() {
         let b = spanned.get_ref();
         let fail = |message: String| SceneBuildError::Body {
@@ -358,7 +362,34 @@ pub fn build_scene(
         let material = resolve_material(&b.material, opts.base_dir, opts.library).map_err(fail)?;
         material.validate().map_err(fail)?;
         let (mesh, shape) = geometry(b, opts.base_dir).map_err(fail)?;
-        let sound = if let Some(stats) = b.stats_file() {
+        let grains = match b.grains_file() {
+            Some((file, gain)) => {
+                let path = opts.base_dir.join(file);
+                let dictionary = match loaded.get(&path) {
+                    Some(d) => std::sync::Arc::clone(d),
+                    None => {
+                        let d = std::sync::Arc::new(
+                            resound_io::grains_file::load(&path)
+                                .map_err(|e| fail(e.to_string()))?,
+                        );
+                        loaded.insert(path, std::sync::Arc::clone(&d));
+                        d
+                    }
+                };
+                Some(resound_physics::GrainSound {
+                    dictionary,
+                    params: resound_grains::player::PlayerParams {
+                        gain,
+                        seed: scene.seed.wrapping_add(i as u64),
+                        ..Default::default()
+                    },
+                })
+            }
+            None => None,
+        };
+        let sound = if grains.is_some() {
+            None
+        } else if let Some(stats) = b.stats_file() {
             Some(
                 stats_sound(
                     &opts.base_dir.join(stats),
@@ -396,6 +427,7 @@ pub fn build_scene(
             friction: b.friction,
             sound,
             surface: surface_of(b, opts.base_dir, scene.seed + i as u64).map_err(fail)?,
+            grains,
         });
     }
     let params = SceneParams {
