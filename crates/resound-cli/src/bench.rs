@@ -37,6 +37,22 @@ pub enum BenchCmd {
     /// Statistical model: sample and render 100 impacts (1 s each, 44.1 kHz) from the PyImpact
     /// metal_3 table, and a 10 s scrape over a fractal surface (8 location IRs).
     Stats(StatsBenchArgs),
+    /// Grains (Picard 2009): analyse the ramp rolling/sliding recordings and the game hit sounds
+    /// of shared/data (grains + patterns), compression and rebuild quality, time scaled to
+    /// Picard's 94 recordings / 14.6 MB.
+    Grains(GrainsBenchArgs),
+}
+
+/// Arguments of `bench grains`.
+#[derive(Args, Debug)]
+pub struct GrainsBenchArgs {
+    /// JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// The shared recordings (with `spatialaudio-ramp/` and `minetest-game/`); default: the
+    /// first of ../shared/data/recordings, /work/shared/data/recordings that exists.
+    #[arg(long)]
+    pub data: Option<std::path::PathBuf>,
 }
 
 /// Arguments of `bench stats`.
@@ -288,6 +304,7 @@ pub fn run(c: BenchCmd) -> Result<()> {
         BenchCmd::Synth(a) => return run_synth(a),
         BenchCmd::Scene(a) => return run_scene(a),
         BenchCmd::Stats(a) => return run_stats(a),
+        BenchCmd::Grains(a) => return run_grains(a),
     };
     let exe = std::env::current_exe().context("locating the resound binary")?;
     let dofs: Vec<usize> = crate::util::parse_list(&a.dofs)?
@@ -775,6 +792,104 @@ fn run_stats(a: StatsBenchArgs) -> Result<()> {
         println!(
             "100 impacts (sample + Hertz pulse + 1 s render each, {} modes): {:.4} s; 10 s scrape (8 location IRs): {:.3} s (best of 3)",
             stats.modes, impacts, scrape10
+        );
+    }
+    Ok(())
+}
+
+/// Picard et al. 2009 §5.1: 94 recordings, 14.6 MB of 16-bit 44.1 kHz audio, 5171 grains;
+/// MATLAB analysis 11 min (grains) + 4 h (patterns).
+const PICARD_AUDIO_S: f64 = 14.6e6 / 2.0 / 44_100.0;
+const PICARD_GRAINS: f64 = 5171.0;
+const PICARD_MATLAB_S: f64 = 11.0 * 60.0 + 4.0 * 3600.0;
+
+fn run_grains(a: GrainsBenchArgs) -> Result<()> {
+    let root = match a.data {
+        Some(d) => d,
+        None => ["../shared/data/recordings", "/work/shared/data/recordings"]
+            .iter()
+            .map(std::path::PathBuf::from)
+            .find(|p| p.is_dir())
+            .context("no shared recordings found; pass --data DIR")?,
+    };
+    let mut files: Vec<String> = Vec::new();
+    for (sub, ext) in [("spatialaudio-ramp", "wav"), ("minetest-game", "ogg")] {
+        let mut f: Vec<String> = std::fs::read_dir(root.join(sub))
+            .with_context(|| format!("reading {}", root.join(sub).display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|e| e == ext))
+            .map(|p| p.to_string_lossy().into_owned())
+            .collect();
+        f.sort();
+        files.extend(f);
+    }
+    let (recs, fs, file_bytes) =
+        crate::grains_cmd::load_recordings(&files, crate::grains_cmd::KindArg::Auto, Some(44_100))?;
+    let audio_s: f64 = recs.iter().map(|r| r.samples.len() as f64 / fs).sum();
+    let t0 = std::time::Instant::now();
+    let (dict, info) = resound::grains::analyze(
+        &recs,
+        fs,
+        &resound::grains::AnalyzeParams::default(),
+        &|_, _| {},
+    )?;
+    let analysis_s = t0.elapsed().as_secs_f64();
+    // Quality after the 16-bit round trip of the file.
+    let bytes = resound::io::grains_file::encode(&dict);
+    let saved = resound::io::grains_file::decode(&bytes, std::path::Path::new("bench.grains"))?;
+    let summary = crate::grains_cmd::summary(&saved, Some(&recs))?;
+    let scale = PICARD_AUDIO_S / audio_s;
+    let scaled = (info.sms_s + info.grains_s) * scale
+        + info.patterns_s * scale * (PICARD_GRAINS / dict.grains.len().max(1) as f64);
+    let sc: Vec<f64> = summary["recordings"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|r| r["spectral_convergence_db"].as_f64())
+        .collect();
+    let median_sc = {
+        let mut s = sc.clone();
+        s.sort_by(f64::total_cmp);
+        s.get(s.len() / 2).copied().unwrap_or(f64::NAN)
+    };
+    let v = json!({
+        "benchmark": "grains",
+        "recordings": recs.len(),
+        "audio_s": audio_s,
+        "analysis_s": analysis_s,
+        "sms_s": info.sms_s,
+        "grains_s": info.grains_s,
+        "patterns_s": info.patterns_s,
+        "pairs": info.pairs,
+        "grains": dict.grains.len(),
+        "analysis_s_scaled_94": scaled,
+        "analysis_s_scaled_94_linear": analysis_s * scale,
+        "picard_matlab_s": PICARD_MATLAB_S,
+        "compression_ratio": summary["compression_ratio"],
+        "compression_ratio_vs_files": file_bytes as f64 / bytes.len().max(1) as f64,
+        "file_bytes": bytes.len(),
+        "source_file_bytes": file_bytes,
+        "spectral_convergence_db_worst": sc.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        "spectral_convergence_db_median": median_sc,
+        "per_recording": summary["recordings"],
+    });
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!(
+            "{} recordings, {:.1} s of audio: analysis {:.2} s (SMS {:.2}, grains {:.2}, patterns {:.2}); {} grains; scaled to Picard's 94 recordings: {:.1} s (MATLAB: {:.0} s); compression {:.2}:1; rebuild spectral convergence median {:.1} dB, worst {:.1} dB",
+            recs.len(),
+            audio_s,
+            analysis_s,
+            info.sms_s,
+            info.grains_s,
+            info.patterns_s,
+            dict.grains.len(),
+            scaled,
+            PICARD_MATLAB_S,
+            v["compression_ratio"].as_f64().unwrap_or(f64::NAN),
+            v["spectral_convergence_db_median"].as_f64().unwrap_or(f64::NAN),
+            v["spectral_convergence_db_worst"].as_f64().unwrap_or(f64::NAN),
         );
     }
     Ok(())

@@ -91,6 +91,15 @@ impl Contact {
     }
 }
 
+/// Order of the parts (impulsive, sinusoidal, transient).
+pub(crate) fn player_part_index(p: Part) -> usize {
+    match p {
+        Part::Impulsive => 0,
+        Part::Sinusoidal => 1,
+        Part::Transient => 2,
+    }
+}
+
 /// One grain: windowed samples at the dictionary's rate and recorded level.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grain {

@@ -90,13 +90,19 @@ struct Prepared {
     block: usize,
     hop: usize,
     spectra: Vec<Vec<Complex32>>,
+    /// Prefix sums of x², padded with the total for `lmax` more entries (no clamping).
     energy: Vec<f64>,
+    /// Signal length.
+    n: usize,
     floor: f64,
 }
 
-/// Normalized cross-correlation peaks of one grain in one signal, strongest within half a grain.
-fn peaks_in(
+/// Normalized cross-correlation peaks of one grain in block `k` of one signal, appended to `out`
+/// (strongest within half a grain).
+#[allow(clippy::too_many_arguments)]
+fn block_peaks(
     sig: &Prepared,
+    k: usize,
     len: usize,
     g_spec: &[Complex32],
     g_norm: f64,
@@ -105,11 +111,11 @@ fn peaks_in(
     buf: &mut (Vec<Complex32>, Vec<f32>, Vec<Complex32>),
     out: &mut Vec<(u32, f32)>,
 ) {
-    let n = sig.energy.len() - 1;
+    let n = sig.n;
     let radius = (len / 2).max(1);
     let scale = 1.0 / sig.block as f64;
-    out.clear();
-    for (k, x) in sig.spectra.iter().enumerate() {
+    {
+        let x = &sig.spectra[k];
         for ((p, &a), &b) in buf.0.iter_mut().zip(x).zip(g_spec) {
             *p = a * b;
         }
@@ -118,25 +124,53 @@ fn peaks_in(
         buf.0[last].im = 0.0;
         let _ = inv.process_with_scratch(&mut buf.0, &mut buf.1, &mut buf.2);
         let t0 = k * sig.hop;
-        for (i, &r) in buf.1[..sig.hop].iter().enumerate() {
-            let t = t0 + i;
-            if t >= n {
-                break;
+        let m = sig.hop.min(n.saturating_sub(t0));
+        // |c| ≥ min_corr ⇔ r² ≥ (min_corr ‖g‖ B)² · e: no square root or division per lag, and
+        // lags are screened eight at a time (most do not pass).
+        let thr = (min_corr * g_norm / scale).powi(2);
+        let floor = sig.floor * len as f64;
+        let r = &buf.1[..m];
+        let lo = &sig.energy[t0..t0 + m];
+        let hi = &sig.energy[t0 + len..t0 + len + m];
+        let passes = |j: usize| {
+            let rr = f64::from(r[j]);
+            rr * rr >= thr * (hi[j] - lo[j]).max(floor)
+        };
+        let mut j0 = 0;
+        while j0 < m {
+            let j1 = (j0 + 8).min(m);
+            let mut any = false;
+            for j in j0..j1 {
+                any |= passes(j);
             }
-            let e = sig.energy[(t + len).min(n)] - sig.energy[t];
-            let c = f64::from(r) * scale / (g_norm * e.max(sig.floor * len as f64).sqrt());
-            if c.abs() < min_corr {
+            if !any {
+                j0 = j1;
                 continue;
             }
-            match out.last_mut() {
-                Some(last) if (t as u32 - last.0) as usize <= radius => {
-                    if c.abs() > f64::from(last.1.abs()) {
-                        *last = (t as u32, c as f32);
-                    }
+            for j in j0..j1 {
+                if !passes(j) {
+                    continue;
                 }
-                _ => out.push((t as u32, c as f32)),
+                let t = t0 + j;
+                let e = (hi[j] - lo[j]).max(floor);
+                let c = f64::from(r[j]) * scale / (g_norm * e.sqrt());
+                push_peak(out, t, c, radius);
+            }
+            j0 = j1;
+        }
+    }
+}
+
+/// Greedy peak picking along time: a new peak within `radius` of the last kept one replaces it
+/// when stronger.
+fn push_peak(out: &mut Vec<(u32, f32)>, t: usize, c: f64, radius: usize) {
+    match out.last_mut() {
+        Some(last) if (t as u32 - last.0) as usize <= radius => {
+            if c.abs() > f64::from(last.1.abs()) {
+                *last = (t as u32, c as f32);
             }
         }
+        _ => out.push((t as u32, c as f32)),
     }
 }
 
@@ -181,16 +215,19 @@ pub fn patterns(
             spectra.push(spec);
             t += hop;
         }
-        let mut energy = vec![0.0f64; n + 1];
+        let mut energy = vec![0.0f64; n + 1 + lmax + hop];
         for (i, &v) in sig.samples.iter().enumerate() {
             energy[i + 1] = energy[i] + f64::from(v).powi(2);
         }
-        let floor = 1e-4 * energy[n] / n.max(1) as f64 + 1e-30;
+        let total = energy[n];
+        energy[n + 1..].fill(total);
+        let floor = 1e-4 * total / n.max(1) as f64 + 1e-30;
         prepared.push(Prepared {
             block,
             hop,
             spectra,
             energy,
+            n,
             floor,
         });
         groups.entry(block).or_default().push(s);
@@ -205,9 +242,12 @@ pub fn patterns(
     for (&block, members) in &groups {
         let fwd = planner.plan_fft_forward(block);
         let inv = planner.plan_fft_inverse(block);
-        let hits: Vec<Vec<(usize, u32, u32, f32)>> = grains
-            .par_iter()
-            .enumerate()
+        // Grains in chunks of 8 (of one kind where possible): each signal block is read once
+        // per chunk, while it is in cache.
+        let mut order: Vec<usize> = (0..grains.len()).collect();
+        order.sort_by_key(|&g| (crate::player_part_index(grains[g].part), g));
+        let hits: Vec<Vec<(usize, u32, u32, f32)>> = order
+            .par_chunks(8)
             .map_init(
                 || {
                     (
@@ -218,17 +258,22 @@ pub fn patterns(
                             inv.make_output_vec(),
                             inv.make_scratch_vec(),
                         ),
-                        Vec::new(),
                     )
                 },
-                |(frame, fscratch, buf, peaks), (gi, g)| {
+                |(frame, fscratch, buf), chunk| {
                     let mut hits = Vec::new();
-                    let users: Vec<usize> = members
-                        .iter()
-                        .copied()
-                        .filter(|&s| signals[s].part == g.part)
-                        .collect();
-                    if !users.is_empty() && g.samples.len() <= block {
+                    let mut specs: Vec<(usize, Vec<Complex32>, f64)> = Vec::new();
+                    for &gi in chunk {
+                        let g = &grains[gi];
+                        let norm = g
+                            .samples
+                            .iter()
+                            .map(|&v| f64::from(v).powi(2))
+                            .sum::<f64>()
+                            .sqrt();
+                        if g.samples.len() > block || !(norm > 0.0) {
+                            continue;
+                        }
                         frame.fill(0.0);
                         frame[..g.samples.len()].copy_from_slice(&g.samples);
                         let mut spec = fwd.make_output_vec();
@@ -236,32 +281,42 @@ pub fn patterns(
                         for c in &mut spec {
                             *c = c.conj();
                         }
-                        let norm = g
-                            .samples
+                        specs.push((gi, spec, norm));
+                    }
+                    let mut outs: Vec<Vec<(u32, f32)>> = vec![Vec::new(); specs.len()];
+                    for &s in members {
+                        let sig = &prepared[s];
+                        if !specs
                             .iter()
-                            .map(|&v| f64::from(v).powi(2))
-                            .sum::<f64>()
-                            .sqrt();
-                        if norm > 0.0 {
-                            for s in users {
-                                peaks_in(
-                                    &prepared[s],
-                                    g.samples.len(),
-                                    &spec,
-                                    norm,
+                            .any(|(gi, _, _)| grains[*gi].part == signals[s].part)
+                        {
+                            continue;
+                        }
+                        outs.iter_mut().for_each(Vec::clear);
+                        for k in 0..sig.spectra.len() {
+                            for ((gi, spec, norm), out) in specs.iter().zip(outs.iter_mut()) {
+                                if grains[*gi].part != signals[s].part {
+                                    continue;
+                                }
+                                block_peaks(
+                                    sig,
+                                    k,
+                                    grains[*gi].samples.len(),
+                                    spec,
+                                    *norm,
                                     p.min_corr,
                                     inv.as_ref(),
                                     buf,
-                                    peaks,
+                                    out,
                                 );
-                                hits.extend(peaks.iter().map(|&(t, c)| (s, gi as u32, t, c)));
                             }
                         }
+                        for ((gi, _, _), out) in specs.iter().zip(&outs) {
+                            hits.extend(out.iter().map(|&(t, c)| (s, *gi as u32, t, c)));
+                        }
                     }
-                    let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                    if d.is_multiple_of(64) {
-                        progress(d as f64 / jobs.max(1) as f64);
-                    }
+                    let d = done.fetch_add(chunk.len(), Ordering::Relaxed) + chunk.len();
+                    progress(d as f64 / jobs.max(1) as f64);
                     hits
                 },
             )

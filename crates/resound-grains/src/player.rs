@@ -119,13 +119,7 @@ impl std::fmt::Debug for GrainPlayer {
     }
 }
 
-fn part_index(p: Part) -> usize {
-    match p {
-        Part::Impulsive => 0,
-        Part::Sinusoidal => 1,
-        Part::Transient => 2,
-    }
-}
+use crate::player_part_index as part_index;
 
 impl GrainPlayer {
     /// A player at output rate `sample_rate_hz` (grains at another rate are resampled on the
