@@ -838,6 +838,17 @@ fn run_grains(a: GrainsBenchArgs) -> Result<()> {
     let bytes = resound::io::grains_file::encode(&dict);
     let saved = resound::io::grains_file::decode(&bytes, std::path::Path::new("bench.grains"))?;
     let summary = crate::grains_cmd::summary(&saved, Some(&recs))?;
+    // The pruned dictionary (grains that others stand in for at correlation 0.8 dropped).
+    let pruned = resound::grains::prune::prune(&dict, 0.8);
+    let pruned_bytes = resound::io::grains_file::encode(&pruned);
+    let pruned = resound::io::grains_file::decode(&pruned_bytes, std::path::Path::new("p.grains"))?;
+    let pruned_summary = crate::grains_cmd::summary(&pruned, Some(&recs))?;
+    let pruned_sc: Vec<f64> = pruned_summary["recordings"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|r| r["spectral_convergence_db"].as_f64())
+        .collect();
     let scale = PICARD_AUDIO_S / audio_s;
     let scaled = (info.sms_s + info.grains_s) * scale
         + info.patterns_s * scale * (PICARD_GRAINS / dict.grains.len().max(1) as f64);
@@ -847,11 +858,25 @@ fn run_grains(a: GrainsBenchArgs) -> Result<()> {
         .flatten()
         .filter_map(|r| r["spectral_convergence_db"].as_f64())
         .collect();
-    let median_sc = {
-        let mut s = sc.clone();
+    // Compression by kind of recording (own grains and peaks against mono 16-bit originals).
+    let class_ratio = |continuous: bool| {
+        let (mut orig, mut stored) = (0.0, 0.0);
+        for r in summary["recordings"].as_array().into_iter().flatten() {
+            if (r["contact"] != "impact") == continuous {
+                let ratio = r["compression_ratio"].as_f64().unwrap_or(0.0);
+                let o = r["duration_s"].as_f64().unwrap_or(0.0) * fs * 2.0;
+                orig += o;
+                stored += o / ratio.max(1e-12);
+            }
+        }
+        orig / stored.max(1e-12)
+    };
+    let median = |v: &[f64]| {
+        let mut s = v.to_vec();
         s.sort_by(f64::total_cmp);
         s.get(s.len() / 2).copied().unwrap_or(f64::NAN)
     };
+    let median_sc = median(&sc);
     let v = json!({
         "benchmark": "grains",
         "recordings": recs.len(),
@@ -866,18 +891,27 @@ fn run_grains(a: GrainsBenchArgs) -> Result<()> {
         "analysis_s_scaled_94_linear": analysis_s * scale,
         "picard_matlab_s": PICARD_MATLAB_S,
         "compression_ratio": summary["compression_ratio"],
+        "compression_ratio_impulsive": class_ratio(false),
+        "compression_ratio_continuous": class_ratio(true),
         "compression_ratio_vs_files": file_bytes as f64 / bytes.len().max(1) as f64,
         "file_bytes": bytes.len(),
         "source_file_bytes": file_bytes,
         "spectral_convergence_db_worst": sc.iter().copied().fold(f64::NEG_INFINITY, f64::max),
         "spectral_convergence_db_median": median_sc,
         "per_recording": summary["recordings"],
+        "pruned_0_8": {
+            "grains": pruned.grains.len(),
+            "compression_ratio": pruned_summary["compression_ratio"],
+            "spectral_convergence_db_median": median(&pruned_sc),
+            "spectral_convergence_db_worst": pruned_sc.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            "per_recording_db": pruned_sc,
+        },
     });
     if a.json {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!(
-            "{} recordings, {:.1} s of audio: analysis {:.2} s (SMS {:.2}, grains {:.2}, patterns {:.2}); {} grains; scaled to Picard's 94 recordings: {:.1} s (MATLAB: {:.0} s); compression {:.2}:1; rebuild spectral convergence median {:.1} dB, worst {:.1} dB",
+            "{} recordings, {:.1} s of audio: analysis {:.2} s (SMS {:.2}, grains {:.2}, patterns {:.2}); {} grains; scaled to Picard's 94 recordings: {:.1} s (MATLAB: {:.0} s); compression {:.2}:1 (impulsive {:.2}:1, continuous {:.2}:1); rebuild spectral convergence median {:.1} dB, worst {:.1} dB",
             recs.len(),
             audio_s,
             analysis_s,
@@ -888,8 +922,17 @@ fn run_grains(a: GrainsBenchArgs) -> Result<()> {
             scaled,
             PICARD_MATLAB_S,
             v["compression_ratio"].as_f64().unwrap_or(f64::NAN),
+            v["compression_ratio_impulsive"].as_f64().unwrap_or(f64::NAN),
+            v["compression_ratio_continuous"].as_f64().unwrap_or(f64::NAN),
             v["spectral_convergence_db_median"].as_f64().unwrap_or(f64::NAN),
             v["spectral_convergence_db_worst"].as_f64().unwrap_or(f64::NAN),
+        );
+        println!(
+            "pruned at correlation 0.8: {} grains, compression {:.2}:1, rebuild median {:.1} dB, worst {:.1} dB",
+            v["pruned_0_8"]["grains"],
+            v["pruned_0_8"]["compression_ratio"].as_f64().unwrap_or(f64::NAN),
+            v["pruned_0_8"]["spectral_convergence_db_median"].as_f64().unwrap_or(f64::NAN),
+            v["pruned_0_8"]["spectral_convergence_db_worst"].as_f64().unwrap_or(f64::NAN),
         );
     }
     Ok(())

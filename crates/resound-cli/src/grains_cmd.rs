@@ -57,6 +57,10 @@ pub struct AnalyzeArgs {
     /// Smallest correlation a pattern peak may have.
     #[arg(long, default_value_t = 0.5)]
     pub min_corr: f64,
+    /// Keep only the grains needed: drop each grain that another grain can stand in for at
+    /// this correlation (e.g. 0.8). Smaller file, less exact rebuilds.
+    #[arg(long, value_name = "CORR")]
+    pub prune: Option<f64>,
     /// Output dictionary (.grains).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -173,12 +177,22 @@ pub fn summary(d: &Dictionary, originals: Option<&[Recording]>) -> Result<Value>
             .filter(|g| g.recording as usize == i)
             .count();
         let peaks: usize = d.patterns_of(i).map(|(_, p)| p.peaks.len()).sum();
+        let grain_bytes: usize = d
+            .grains
+            .iter()
+            .filter(|g| g.recording as usize == i)
+            .map(|g| g.samples.len() * resound::grains::GRAIN_SAMPLE_BYTES)
+            .sum();
+        let stored = grain_bytes + peaks * resound::grains::PEAK_BYTES;
         let mut v = json!({
             "name": r.name,
             "contact": r.contact,
             "duration_s": f64::from(r.samples) / d.sample_rate_hz,
             "grains": grains,
             "peaks": peaks,
+            "grain_bytes": grain_bytes,
+            "compression_ratio": (r.samples as usize * resound::grains::GRAIN_SAMPLE_BYTES) as f64
+                / stored.max(1) as f64,
         });
         if let Some(o) = originals {
             let y = resynthesize(d, i, &ResynthParams::default())?;
@@ -224,6 +238,13 @@ pub fn run(c: GrainsCmd) -> Result<()> {
             };
             let (dict, info) = resound::grains::analyze(&recs, fs, &params, &report)?;
             pb.finish_and_clear();
+            let dict = match a.prune {
+                Some(c) if (0.0..1.0).contains(&c) && c > 0.0 => {
+                    resound::grains::prune::prune(&dict, c)
+                }
+                Some(c) => bail!("--prune must be a correlation in (0, 1), got {c}"),
+                None => dict,
+            };
             let size = resound::io::grains_file::save(&a.output, &dict)?;
             // Quality is measured on what was saved (16-bit grains).
             let saved = resound::io::grains_file::load(&a.output)?;

@@ -13,7 +13,7 @@
 //!    ([`segment`]), 7–70 ms long (Picard's 300–3000 samples at 44.1 kHz), windowed by a Tukey
 //!    window (r = 0.02) whose tapers are shared with the neighbours — the overlap-add of a
 //!    recording's own grains is the recording. Grains more than `min_db` below the loudest grain
-//!    of their part are dropped.
+//!    of their recording (either part) are dropped.
 //! 3. Every part is correlated with every grain of the same kind (normalized cross-correlation,
 //!    FFT overlap-save, [`pattern`]); peaks are picked greedily and the `k` largest kept per part:
 //!    its *correlation pattern*, each peak with the energy-matching gain of its grain there.
@@ -26,6 +26,7 @@
 
 pub mod pattern;
 pub mod player;
+pub mod prune;
 pub mod quality;
 pub mod resynth;
 pub mod segment;
@@ -391,8 +392,18 @@ pub fn analyze(
     // 2. Grains.
     let t = std::time::Instant::now();
     let mut grains = Vec::new();
-    for (k, (rec, part, x)) in parts.iter().enumerate() {
-        let cut = segment::grains(x, sample_rate_hz, &params.segment);
+    let cuts: Vec<Vec<segment::Cut>> = parts
+        .iter()
+        .map(|(_, _, x)| segment::cut(x, sample_rate_hz, &params.segment))
+        .collect();
+    // The energy threshold is relative to the loudest grain of the whole recording (both parts
+    // of a continuous one): a faint sinusoidal part is not kept whole.
+    let mut loudest = vec![0.0f64; recordings.len()];
+    for ((rec, _, _), c) in parts.iter().zip(&cuts) {
+        loudest[*rec] = c.iter().map(segment::Cut::power).fold(loudest[*rec], f64::max);
+    }
+    for (k, ((rec, part, _), c)) in parts.iter().zip(cuts).enumerate() {
+        let cut = segment::threshold(c, loudest[*rec], params.segment.min_db);
         info.grains_cut += cut.total;
         grains.extend(cut.kept.into_iter().map(|g| Grain {
             samples: g.samples,

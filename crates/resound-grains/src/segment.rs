@@ -293,12 +293,16 @@ pub struct Cutting {
 
 /// Cuts `x` into windowed grains at [`boundaries`] and drops the quiet ones.
 pub fn grains(x: &[f32], sample_rate_hz: f64, p: &SegmentParams) -> Cutting {
+    let all = cut(x, sample_rate_hz, p);
+    let loudest = all.iter().map(Cut::power).fold(0.0, f64::max);
+    threshold(all, loudest, p.min_db)
+}
+
+/// Cuts `x` into windowed grains at [`boundaries`], all of them.
+pub fn cut(x: &[f32], sample_rate_hz: f64, p: &SegmentParams) -> Vec<Cut> {
     let n = x.len();
     if n == 0 {
-        return Cutting {
-            kept: Vec::new(),
-            total: 0,
-        };
+        return Vec::new();
     }
     let (b, onsets) = boundaries_and_onsets(x, sample_rate_hz, p);
     let mut edges = b.clone();
@@ -346,17 +350,26 @@ pub fn grains(x: &[f32], sample_rate_hz: f64, p: &SegmentParams) -> Cutting {
             onset: onsets[j],
         });
     }
-    let power = |c: &Cut| {
-        c.samples.iter().map(|&v| f64::from(v).powi(2)).sum::<f64>() / c.samples.len() as f64
-    };
-    let loudest = cuts.iter().map(power).fold(0.0, f64::max);
-    let floor = loudest * 10f64.powf(p.min_db / 10.0);
+    cuts
+}
+
+/// Keeps the grains whose power is above `loudest · 10^(min_db/10)` (and not silent).
+pub fn threshold(cuts: Vec<Cut>, loudest: f64, min_db: f64) -> Cutting {
+    let floor = loudest * 10f64.powf(min_db / 10.0);
     let total = cuts.len();
     let kept = cuts
         .into_iter()
-        .filter(|c| power(c) > floor && power(c) > 0.0)
+        .filter(|c| c.power() > floor && c.power() > 0.0)
         .collect();
     Cutting { kept, total }
+}
+
+impl Cut {
+    /// Mean square of the windowed samples.
+    pub fn power(&self) -> f64 {
+        self.samples.iter().map(|&v| f64::from(v).powi(2)).sum::<f64>()
+            / self.samples.len().max(1) as f64
+    }
 }
 
 #[cfg(test)]
