@@ -400,7 +400,10 @@ pub fn analyze(
     // of a continuous one): a faint sinusoidal part is not kept whole.
     let mut loudest = vec![0.0f64; recordings.len()];
     for ((rec, _, _), c) in parts.iter().zip(&cuts) {
-        loudest[*rec] = c.iter().map(segment::Cut::power).fold(loudest[*rec], f64::max);
+        loudest[*rec] = c
+            .iter()
+            .map(segment::Cut::power)
+            .fold(loudest[*rec], f64::max);
     }
     for (k, ((rec, part, _), c)) in parts.iter().zip(cuts).enumerate() {
         let cut = segment::threshold(c, loudest[*rec], params.segment.min_db);

@@ -100,7 +100,11 @@ mod tests {
         let a = crate::testing::event(0, 2600, fs, &mut rng);
         let b = crate::testing::event(3, 2200, fs, &mut rng);
         // a b a b a: the second and third a, b are the same waveforms.
-        let x: Vec<f32> = [&a, &b, &a, &b, &a].into_iter().flatten().copied().collect();
+        let x: Vec<f32> = [&a, &b, &a, &b, &a]
+            .into_iter()
+            .flatten()
+            .copied()
+            .collect();
         let rec = Recording {
             name: "abab".into(),
             contact: Contact::Impact,
@@ -109,9 +113,19 @@ mod tests {
         let (d, _) = analyze(&[rec], fs, &Default::default(), &|_, _| {}).expect("analysis");
         let p = prune(&d, 0.9);
         p.validate().expect("valid");
-        assert!(p.grains.len() < d.grains.len(), "{} → {}", d.grains.len(), p.grains.len());
+        assert!(
+            p.grains.len() < d.grains.len(),
+            "{} → {}",
+            d.grains.len(),
+            p.grains.len()
+        );
         let y = crate::resynth::resynthesize(&p, 0, &Default::default()).expect("rebuild");
         let sc = crate::quality::spectral_convergence_db(&x, &y, fs);
-        assert!(sc < -20.0, "{sc} dB with {} of {} grains", p.grains.len(), d.grains.len());
+        assert!(
+            sc < -20.0,
+            "{sc} dB with {} of {} grains",
+            p.grains.len(),
+            d.grains.len()
+        );
     }
 }

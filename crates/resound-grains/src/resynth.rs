@@ -61,8 +61,13 @@ impl ResynthParams {
     }
 }
 
-/// The next grain of a pattern walk: candidates start in `[look, look + half]`, or, when none
-/// does, in the same window from the next peak on. `None` past the last peak.
+/// Peaks weaker than this are not walked to: a quiet stretch whose grains were dropped is left
+/// quiet rather than filled with a poor match that would overrun the next good one.
+pub const WALK_MIN_CORR: f32 = 0.8;
+
+/// The next grain of a pattern walk: candidates (|correlation| ≥ [`WALK_MIN_CORR`]) start in
+/// `[look, look + half]`, or, when none does, in the same window from the next such peak on.
+/// `None` past the last one.
 pub fn pick<'a>(
     pattern: &'a Pattern,
     look: f64,
@@ -71,30 +76,34 @@ pub fn pick<'a>(
     rng: &mut SmallRng,
 ) -> Option<&'a Peak> {
     let peaks = &pattern.peaks;
+    let strong = |p: &&Peak| p.corr.abs() >= WALK_MIN_CORR;
     let lo = peaks.partition_point(|p| f64::from(p.time) < look);
-    let first = peaks.get(lo)?;
+    let first = peaks[lo..].iter().find(strong)?;
     let from = if f64::from(first.time) <= look + half {
         look
     } else {
         f64::from(first.time)
     };
-    let hi = lo + peaks[lo..].partition_point(|p| f64::from(p.time) <= from + half);
-    let cands = &peaks[lo..hi.max(lo + 1)];
+    let cands = || {
+        peaks[lo..]
+            .iter()
+            .take_while(move |p| f64::from(p.time) <= from + half)
+            .filter(strong)
+    };
     // Nearly equal correlations (a steady sound matches itself a period later) are decided
     // by proximity: 0.1 of correlation per half window of delay.
     let score = |p: &Peak| f64::from(p.corr.abs()) - 0.1 * (f64::from(p.time) - from) / half;
-    let best = cands.iter().max_by(|a, b| score(a).total_cmp(&score(b)))?;
-    if variation <= 0.0 || cands.len() == 1 {
+    let best = cands().max_by(|a, b| score(a).total_cmp(&score(b)))?;
+    if variation <= 0.0 {
         return Some(best);
     }
     let floor = (1.0 - variation as f32) * best.corr.abs();
-    let total: f32 = cands
-        .iter()
+    let total: f32 = cands()
         .filter(|p| p.corr.abs() >= floor)
         .map(|p| p.corr.abs())
         .sum();
     let mut u = rng.random::<f32>() * total;
-    for p in cands.iter().filter(|p| p.corr.abs() >= floor) {
+    for p in cands().filter(|p| p.corr.abs() >= floor) {
         u -= p.corr.abs();
         if u <= 0.0 {
             return Some(p);

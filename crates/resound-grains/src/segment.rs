@@ -367,7 +367,10 @@ pub fn threshold(cuts: Vec<Cut>, loudest: f64, min_db: f64) -> Cutting {
 impl Cut {
     /// Mean square of the windowed samples.
     pub fn power(&self) -> f64 {
-        self.samples.iter().map(|&v| f64::from(v).powi(2)).sum::<f64>()
+        self.samples
+            .iter()
+            .map(|&v| f64::from(v).powi(2))
+            .sum::<f64>()
             / self.samples.len().max(1) as f64
     }
 }
