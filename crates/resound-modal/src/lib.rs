@@ -9,7 +9,7 @@
 //! let params = ModalParams { n_modes: Some(3), resolution: 30, ..Default::default() };
 //! let (model, info) = compute_modal_model(&bar, &Material::preset("steel").unwrap(), &params, &|_| {}).unwrap();
 //! assert_eq!(model.n_modes(), 3);
-//! assert!(info.eigen.max_rel_residual < 1e-6);
+//! assert!(info.eigen.max_rel_residual <= 1e-3); // the default tolerance
 //! ```
 //!
 //! # Conventions

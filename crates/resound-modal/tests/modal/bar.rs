@@ -233,9 +233,11 @@ fn sparse_lanczos_agrees_with_dense_solve() {
     };
     let (lam, phi, info) = solve_generalized(fem.k.as_ref(), fem.m.as_ref(), &ep, &|_| {}).unwrap();
     assert_eq!(lam.len(), 30);
+    // Residuals ≤ 1e-3 bound the eigenvalue errors by about their square (1e-6); in practice
+    // they are far smaller.
     for j in 6..30 {
         assert!(
-            (lam[j] / dense[j] - 1.0).abs() < 1e-9,
+            (lam[j] / dense[j] - 1.0).abs() < 1e-8,
             "mode {j}: {} vs {}",
             lam[j],
             dense[j]
