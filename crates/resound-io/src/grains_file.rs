@@ -20,7 +20,7 @@
 //! 32767), as Picard counts the grain bytes of 16-bit assets.
 
 use crate::atomic::write_atomic;
-use crate::model_file::{fnv1a, R};
+use crate::model_file::{fnv1a, open};
 use crate::{parse_err, Result};
 use resound_grains::{Dictionary, Grain, Part, Pattern, Peak, RecordingInfo};
 use std::path::Path;
@@ -116,24 +116,9 @@ fn u32_of(s: &[u8]) -> u32 {
 /// or an inconsistent dictionary.
 pub fn decode(data: &[u8], path: &Path) -> Result<Dictionary> {
     let bad = |m: &str| parse_err(path, format!("grain dictionary: {m}"));
-    if data.len() < 8 || &data[..8] != MAGIC {
-        return Err(bad("not a .grains file (bad magic)"));
-    }
-    if data.len() < 28 {
-        return Err(bad("truncated"));
-    }
-    let (body, sum) = data.split_at(data.len() - 8);
-    let mut r = R { d: body, p: 8 };
+    let mut r = open(data, MAGIC, VERSION, "not a .grains file (bad magic)", &bad)?;
+    let body_len = data.len() - 8;
     let trunc = || bad("truncated");
-    let version = r.u32().ok_or_else(trunc)?;
-    if version != VERSION {
-        return Err(bad(&format!(
-            "format version {version}; this build reads version {VERSION}"
-        )));
-    }
-    if u64::from_le_bytes(sum.try_into().unwrap_or([0; 8])) != fnv1a(body) {
-        return Err(bad("checksum mismatch (file is truncated or corrupt)"));
-    }
     let sample_rate_hz = r.f64s(1).ok_or_else(trunc)?[0];
     let jlen = r.u32().ok_or_else(trunc)? as usize;
     let recordings: Vec<RecordingInfo> = serde_json::from_slice(r.take(jlen).ok_or_else(trunc)?)
@@ -190,7 +175,7 @@ pub fn decode(data: &[u8], path: &Path) -> Result<Dictionary> {
                 .collect(),
         });
     }
-    if r.p != body.len() {
+    if r.p != body_len {
         return Err(bad("trailing bytes"));
     }
     let d = Dictionary {

@@ -108,6 +108,35 @@ impl<'a> R<'a> {
     }
 }
 
+/// Checks a checksummed binary file's magic, version (u32 after the magic) and FNV-1a trailer;
+/// returns a reader over its body positioned after the version. `bad` makes the errors.
+pub(crate) fn open<'a>(
+    data: &'a [u8],
+    magic: &[u8; 8],
+    version: u32,
+    not_magic: &str,
+    bad: &dyn Fn(&str) -> crate::IoError,
+) -> Result<R<'a>> {
+    if data.len() < 8 || &data[..8] != magic {
+        return Err(bad(not_magic));
+    }
+    if data.len() < 20 {
+        return Err(bad("truncated"));
+    }
+    let (body, sum) = data.split_at(data.len() - 8);
+    let mut r = R { d: body, p: 8 };
+    let found = r.u32().ok_or_else(|| bad("truncated"))?;
+    if found != version {
+        return Err(bad(&format!(
+            "format version {found}; this build reads version {version}"
+        )));
+    }
+    if u64::from_le_bytes(sum.try_into().unwrap_or([0; 8])) != fnv1a(body) {
+        return Err(bad("checksum mismatch (file is truncated or corrupt)"));
+    }
+    Ok(r)
+}
+
 /// Decodes a model; `path` is for messages.
 ///
 /// # Errors
@@ -115,24 +144,8 @@ impl<'a> R<'a> {
 /// or an inconsistent model.
 pub fn decode(data: &[u8], path: &Path) -> Result<ModalModel> {
     let bad = |m: &str| parse_err(path, format!("modal model file: {m}"));
-    if data.len() < 8 || &data[..8] != MAGIC {
-        return Err(bad("not a .rmodal file (bad magic)"));
-    }
-    if data.len() < 20 {
-        return Err(bad("truncated"));
-    }
-    let (body, sum) = data.split_at(data.len() - 8);
-    let mut r = R { d: body, p: 8 };
+    let mut r = open(data, MAGIC, VERSION, "not a .rmodal file (bad magic)", &bad)?;
     let trunc = || bad("truncated");
-    let version = r.u32().ok_or_else(trunc)?;
-    if version != VERSION {
-        return Err(bad(&format!(
-            "format version {version}; this build reads version {VERSION}"
-        )));
-    }
-    if u64::from_le_bytes(sum.try_into().unwrap_or([0; 8])) != fnv1a(body) {
-        return Err(bad("checksum mismatch (file is truncated or corrupt)"));
-    }
     let nlen = r.u32().ok_or_else(trunc)? as usize;
     let name = String::from_utf8(r.take(nlen).ok_or_else(trunc)?.to_vec())
         .map_err(|_| bad("material name is not UTF-8"))?;
@@ -165,7 +178,7 @@ pub fn decode(data: &[u8], path: &Path) -> Result<ModalModel> {
     let sb = r
         .take(ns.checked_mul(4).ok_or_else(trunc)?)
         .ok_or_else(trunc)?;
-    if r.p != body.len() {
+    if r.p != data.len() - 8 {
         return Err(bad("trailing bytes"));
     }
     let m = ModalModel {

@@ -179,6 +179,9 @@ pub struct EigenInfo {
     pub retried: bool,
 }
 
+/// Pairs that passed the final residual check: λ, M-normalized φ, largest relative residual.
+type Checked = (Vec<f64>, Mat<f64>, f64);
+
 /// y = M x for a full symmetric CSC M (x and y of length n).
 pub fn sym_matvec(m: SparseColMatRef<'_, usize, f64>, x: &[f64], y: &mut [f64]) {
     y.iter_mut().for_each(|v| *v = 0.0);
@@ -654,7 +657,7 @@ pub fn solve_generalized(
     // check of all of them fail, it runs once more with a 100× stricter Ritz tolerance and twice
     // the margin instead of giving up.
     let mut strict = false;
-    let checked: std::cell::RefCell<Option<(Vec<f64>, Mat<f64>, f64)>> = Default::default();
+    let checked: std::cell::RefCell<Option<Checked>> = Default::default();
     let (lambdas, phi, wanted, nev, max_res) = 'attempt: loop {
         let mut wanted = params.n_eigen.min(n);
         let mut nev = (wanted + guard(wanted)).min(n);
