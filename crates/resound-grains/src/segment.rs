@@ -1,6 +1,6 @@
 //! Grains: cut a signal at the rising inflection points of its spectral flux (Picard §3.2).
 //!
-//! - *Spectral flux* (Dixon 2006, Picard's ref. [8]): the half-wave rectified frame-to-frame
+//! - *Spectral flux* (Dixon 2006, Picard's ref. 8): the half-wave rectified frame-to-frame
 //!   increase of the log-compressed magnitude spectrum, `Σ_k max(0, L_m(k) − L_{m−1}(k))`,
 //!   `L = ln(1 + λ|X|)`, Hann frames of about 12 ms every quarter frame, smoothed [1 2 1].
 //! - *Rising inflection points*: where the flux grows fastest (local maxima of its first
