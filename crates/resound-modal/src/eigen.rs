@@ -179,6 +179,26 @@ pub struct EigenInfo {
     pub retried: bool,
 }
 
+/// Scales every column of `phi` to φᵀMφ = 1 and returns Mφ (scaled alike); `None` when a column
+/// has no positive finite M-norm.
+fn m_normalize(m: SparseColMatRef<'_, usize, f64>, phi: &mut Mat<f64>) -> Option<Mat<f64>> {
+    let mut mphi = sym_matmul(m, phi.as_ref());
+    for c in 0..phi.ncols() {
+        let mnorm = (0..phi.nrows())
+            .map(|i| phi[(i, c)] * mphi[(i, c)])
+            .sum::<f64>()
+            .sqrt();
+        if !(mnorm > 0.0 && mnorm.is_finite()) {
+            return None;
+        }
+        for i in 0..phi.nrows() {
+            phi[(i, c)] /= mnorm;
+            mphi[(i, c)] /= mnorm;
+        }
+    }
+    Some(mphi)
+}
+
 /// Pairs that passed the final residual check: λ, M-normalized φ, largest relative residual.
 type Checked = (Vec<f64>, Mat<f64>, f64);
 
@@ -730,20 +750,9 @@ pub fn solve_generalized(
                         next_full.set(s.nrows() + s.nrows().div_ceil(7));
                         let lam: Vec<f64> = (0..want).map(|c| sigma + 1.0 / theta[c]).collect();
                         let mut phi = op.unpermute(ltq_times(s.subcols(0, want)).as_ref());
-                        let mut mphi = sym_matmul(m, phi.as_ref());
-                        for c in 0..want {
-                            let mnorm = (0..n)
-                                .map(|i| phi[(i, c)] * mphi[(i, c)])
-                                .sum::<f64>()
-                                .sqrt();
-                            if !(mnorm > 0.0 && mnorm.is_finite()) {
-                                return false;
-                            }
-                            for i in 0..n {
-                                phi[(i, c)] /= mnorm;
-                                mphi[(i, c)] /= mnorm;
-                            }
-                        }
+                        let Some(mphi) = m_normalize(m, &mut phi) else {
+                            return false;
+                        };
                         let res = residuals_with_m(k, &lam, phi.as_ref(), mphi.as_ref());
                         if res <= params.tolerance {
                             *checked.borrow_mut() = Some((lam, phi, res));
@@ -792,26 +801,14 @@ pub fn solve_generalized(
             EigenMethod::Lanczos => op.back_transform(ysorted.as_ref(), par),
             EigenMethod::BlockLanczos => op.unpermute(ysorted.as_ref()),
         };
-        // M-normalise.
-        let mut mphi = sym_matmul(m, phi.as_ref());
-        for c in 0..nev {
-            let mnorm = (0..n)
-                .map(|i| phi[(i, c)] * mphi[(i, c)])
-                .sum::<f64>()
-                .sqrt();
-            if !(mnorm > 0.0 && mnorm.is_finite()) {
-                return Err(ModalError::NoConvergence {
-                    converged: info.converged,
-                    requested: nev,
-                    max_residual: f64::INFINITY,
-                    tolerance: params.tolerance,
-                });
-            }
-            for i in 0..n {
-                phi[(i, c)] /= mnorm;
-                mphi[(i, c)] /= mnorm;
-            }
-        }
+        let Some(mphi) = m_normalize(m, &mut phi) else {
+            return Err(ModalError::NoConvergence {
+                converged: info.converged,
+                requested: nev,
+                max_residual: f64::INFINITY,
+                tolerance: params.tolerance,
+            });
+        };
         let max_res = residuals_with_m(k, &lambdas[..wanted], phi.as_ref(), mphi.as_ref());
         if !(max_res <= params.tolerance) && !strict && params.method == EigenMethod::BlockLanczos {
             strict = true;
