@@ -1,10 +1,11 @@
 //! `resound analyze`: the damped sinusoids of a recorded strike.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
-use resound::io::{atomic::write_atomic, load_audio};
-use resound::signal::{analyze, resample::resample, Analysis, AnalyzeParams};
-use serde_json::{json, Value};
+use resound::core::DampedMode;
+use resound::recording::{analyze_file, RecordingParams};
+use resound::signal::{Analysis, AnalyzeParams};
+use serde::Serialize;
 use std::path::PathBuf;
 
 /// Arguments of `analyze`.
@@ -45,6 +46,22 @@ pub struct AnalyzeArgs {
     pub stage1_only: bool,
 }
 
+/// The JSON `analyze` writes (and `synth --modes` reads).
+#[derive(Serialize)]
+struct Output<'a> {
+    file: String,
+    codec: &'a str,
+    sample_rate: f64,
+    onset_s: f64,
+    strikes_s: &'a [f64],
+    analysed_s: f64,
+    noise_rms: f64,
+    clipped_samples: usize,
+    warnings: &'a [String],
+    elapsed_s: f64,
+    modes: &'a [DampedMode],
+}
+
 /// Runs `analyze`.
 pub fn run(a: AnalyzeArgs) -> Result<()> {
     if a.strike == 0 {
@@ -52,16 +69,6 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     }
     if !(a.max_duration_s > 0.02 && a.max_duration_s <= 600.0) {
         bail!("--max-duration-s must be in (0.02, 600]");
-    }
-    let clip = load_audio(&a.audio)?;
-    let mut x = clip.mono(a.channel, &a.audio)?;
-    let mut fs = clip.sample_rate_hz;
-    if let Some(to) = a.resample_hz {
-        if !(8000..=192_000).contains(&to) {
-            bail!("--resample-hz must be in 8000..=192000");
-        }
-        x = resample(&x, fs, to).map_err(anyhow::Error::msg)?;
-        fs = to;
     }
     let params = AnalyzeParams {
         max_modes: a.max_modes,
@@ -72,71 +79,37 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         refine: !a.stage1_only,
         ..AnalyzeParams::default()
     };
-    let res = analyze(&x, f64::from(fs), &params)
-        .with_context(|| format!("cannot analyse {}", a.audio.display()))?;
-    for w in &res.warnings {
-        eprintln!("warning: {w}");
-    }
-    if res.modes.is_empty() {
-        let hint = if res.strikes_s.len() > 1 {
-            format!(
-                " (strike {} of {} lasts {:.0} ms; try another with --strike)",
-                a.strike,
-                res.strikes_s.len(),
-                1e3 * res.samples as f64 / res.sample_rate_hz
-            )
-        } else {
-            String::new()
-        };
-        bail!(
-            "no modes found in {} above the noise and within {} dB of the strongest peak{hint}",
-            a.audio.display(),
-            a.min_db
-        );
-    }
-    let v = summary(&res, &a, &clip.codec);
+    let rp = RecordingParams {
+        channel: a.channel,
+        resample_hz: a.resample_hz,
+    };
+    let (rec, res) = analyze_file(&a.audio, &rp, &params)?;
+    crate::util::warn_all(&res.warnings);
+    let out = Output {
+        file: a.audio.display().to_string(),
+        codec: &rec.codec,
+        sample_rate: res.sample_rate_hz,
+        onset_s: res.onset_s,
+        strikes_s: &res.strikes_s,
+        analysed_s: res.samples as f64 / res.sample_rate_hz,
+        noise_rms: res.noise_rms,
+        clipped_samples: res.clipped_samples,
+        warnings: &res.warnings,
+        elapsed_s: res.total_s,
+        modes: &res.modes,
+    };
     match &a.json {
-        Some(p) if p.as_os_str() == "-" => println!("{}", serde_json::to_string_pretty(&v)?),
-        Some(p) => {
-            let text = serde_json::to_string_pretty(&v)?;
-            write_atomic(p, |w| w.write_all(text.as_bytes()))?;
-        }
+        Some(p) if p.as_os_str() == "-" => crate::util::print_json(&out)?,
+        Some(p) => resound::files::write_json(p, &out)?,
         None => {}
     }
     if let Some(p) = &a.plot {
-        let seg_start = (res.onset_s * res.sample_rate_hz).round() as usize;
-        let mut seg = x[seg_start.min(x.len())..].to_vec();
-        if let Some(f) = a.highpass_hz {
-            resound::signal::filter::highpass_zero_phase(&mut seg, f, res.sample_rate_hz);
-        }
-        seg.truncate(res.samples);
-        crate::plot::analysis_png(p, &seg, &res, &a.audio.display().to_string())?;
+        resound::plot::analysis_png(p, &res, &a.audio.display().to_string())?;
     }
     if a.json.as_ref().is_none_or(|p| p.as_os_str() != "-") {
         print_table(&res);
     }
     Ok(())
-}
-
-fn summary(r: &Analysis, a: &AnalyzeArgs, codec: &str) -> Value {
-    json!({
-        "file": a.audio.display().to_string(),
-        "codec": codec,
-        "sample_rate": r.sample_rate_hz,
-        "onset_s": r.onset_s,
-        "strikes_s": r.strikes_s,
-        "analysed_s": r.samples as f64 / r.sample_rate_hz,
-        "noise_rms": r.noise_rms,
-        "clipped_samples": r.clipped_samples,
-        "warnings": r.warnings,
-        "elapsed_s": r.total_s,
-        "modes": r.modes.iter().map(|m| json!({
-            "freq_hz": m.freq_hz,
-            "damping_per_s": m.damping_per_s,
-            "amplitude": m.amplitude,
-            "phase_rad": m.phase_rad,
-        })).collect::<Vec<_>>(),
-    })
 }
 
 fn print_table(r: &Analysis) {

@@ -1,20 +1,19 @@
 //! `resound estimate` and `resound materials`: material estimation and the material library.
 
-use crate::modal_cmd::hit_gains;
-use crate::util::{parse_vec3, spinner, stage_message};
-use anyhow::{bail, Context, Result};
+use crate::util::{bar, parse_vec3, print_json, spinner, stage_message, warn_all};
+use anyhow::{bail, Result};
 use clap::{Args, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
-use resound::core::{Material, ModalModel, Provenance, SoundMaterial};
-use resound::estimate::{
-    estimate, estimate::starting_points_within, estimate::Objective, EstimateParams, ModalSide,
+use resound::core::{Material, ModalModel};
+use resound::io::library::{read_material, write_material};
+use resound::material::{
+    estimate_material, estimate_plot, library_material as get, open_library, start_count,
+    EstimateMaterialParams,
 };
-use resound::io::library::{default_library_path, read_material, write_material, Library};
-use resound::io::{load_audio, load_mesh, model_file, LoadedMesh};
-use resound::modal::{compute_modal_model, compute_modal_model_from_tets, ModalParams};
-use resound::signal::{analyze, filter::highpass_zero_phase, AnalyzeParams};
-use serde_json::json;
-use std::path::PathBuf;
+use resound::object::{load_object, ObjectParams};
+use resound::recording::{analyze_file, RecordingParams};
+use resound::signal::AnalyzeParams;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `estimate`.
 #[derive(Args, Debug)]
@@ -60,216 +59,128 @@ pub struct EstimateArgs {
     pub no_residual: bool,
 }
 
-/// Longest residual stored with a material, s (keeps material files small; a residual is
-/// mostly the strike's transient).
-const MAX_RESIDUAL_S: f64 = 1.0;
-
-/// The material library path from `--library` or the default.
-pub fn library_path(p: &Option<PathBuf>) -> Result<PathBuf> {
-    match p {
-        Some(p) => Ok(p.clone()),
-        None => default_library_path()
-            .context("no home directory for the default library; pass --library PATH"),
-    }
-}
-
-/// A modal model from a saved `.rmodal` or a mesh (solved here with `reference_material`).
+/// A modal model from a saved `.rmodal` or a mesh solved with `reference_material`, with a
+/// spinner.
 pub fn load_model(
-    mesh_path: &std::path::Path,
+    path: &Path,
     scale: f64,
     modes: usize,
     reference_material: &str,
 ) -> Result<ModalModel> {
-    if mesh_path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("rmodal"))
-    {
-        return Ok(model_file::load(mesh_path)?);
-    }
-    let material = Material::parse(reference_material)?;
-    let p = ModalParams {
-        n_modes: Some(modes),
-        max_freq_hz: None,
-        ..Default::default()
+    let params = ObjectParams {
+        scale,
+        modal: resound::modal::ModalParams {
+            n_modes: Some(modes),
+            ..Default::default()
+        },
+        reference_material: Material::parse(reference_material)?,
     };
-    let mesh = load_mesh(mesh_path, scale).context("loading the mesh")?;
     let pb = spinner("modal");
     let progress = |s| stage_message(&pb, s);
-    let r = match &mesh {
-        LoadedMesh::Surface(s) => compute_modal_model(s, &material, &p, &progress),
-        LoadedMesh::Tets(t) => {
-            compute_modal_model_from_tets(t, &material, &p, &progress).map(|(m, i, _)| (m, i))
-        }
-    };
+    let model = load_object(path, &params, &progress);
     pb.finish_and_clear();
-    Ok(r.context("modal analysis")?.0)
+    Ok(model?)
+}
+
+/// Snaps a hit to the model's surface, with a note when it moved.
+pub fn snap(model: &ModalModel, query: [f64; 3]) -> Result<resound::core::Hit> {
+    let hit = model.hit(query)?;
+    if hit.at.distance > 1e-6 {
+        eprintln!(
+            "note: hit point {query:?} is {:.2} mm off the surface; using the nearest surface point {:?}",
+            hit.at.distance * 1e3,
+            hit.at.point
+        );
+    }
+    Ok(hit)
+}
+
+#[derive(Serialize)]
+struct Output<'a> {
+    name: &'a str,
+    alpha: f64,
+    beta: f64,
+    gamma: f64,
+    sigma: f64,
+    metric: f64,
+    elapsed_s: f64,
+    starts: usize,
+    evaluations: usize,
+    reference_modes: usize,
 }
 
 /// Runs `estimate`.
 pub fn run(a: EstimateArgs) -> Result<()> {
-    let hit = parse_vec3(&a.hit)?;
-    if let Some(n) = &a.name {
-        SoundMaterial::rayleigh(n, 1.0, 1.0, 1.0, 1.0)
-            .validate()
-            .map_err(anyhow::Error::msg)?;
-    }
-    let clip = load_audio(&a.audio)?;
-    let x = clip.mono(None, &a.audio)?;
-    let fs = f64::from(clip.sample_rate_hz);
-    let params = AnalyzeParams {
-        highpass_hz: a.highpass_hz,
-        ..AnalyzeParams::default()
-    };
-    let analysis =
-        analyze(&x, fs, &params).with_context(|| format!("analysing {}", a.audio.display()))?;
-    for w in &analysis.warnings {
-        eprintln!("warning: {w}");
-    }
-    if analysis.modes.is_empty() {
-        bail!(
-            "no modes found in {}: nothing to estimate from",
-            a.audio.display()
-        );
-    }
-    let model = load_model(&a.mesh, a.scale, a.modes, &a.reference_material)?;
-    let (gains, point, _, distance) = hit_gains(&model, hit)?;
-    if distance > 1e-6 {
-        eprintln!(
-            "note: hit point {:?} is {:.2} mm off the surface; using the nearest surface point {:?}",
-            hit,
-            distance * 1e3,
-            point
-        );
-    }
-    let gamma0 = model.material.youngs_modulus / model.material.density;
-    let side = ModalSide {
-        eigenvalues0: model.eigenvalues.clone(),
-        gains0: gains,
-        gamma0,
-    };
-    let band_top = analysis.modes.iter().map(|m| m.freq_hz).fold(0.0, f64::max);
-    if model.eigenvalues.is_empty() {
-        bail!("the modal model has no modes");
-    }
-    let onset = (analysis.onset_s * fs).round() as usize;
-    let mut seg = x[onset.min(x.len())..].to_vec();
-    if let Some(f) = a.highpass_hz {
-        highpass_zero_phase(&mut seg, f, fs);
-    }
-    seg.truncate(analysis.samples);
-    let ep = EstimateParams::default();
-    let n_starts =
-        starting_points_within(&side, &analysis.modes, ep.dominant, seg.len() as f64 / fs)
-            .len()
-            .min(resound::estimate::estimate::MAX_STARTS);
-    let pb = ProgressBar::new(n_starts as u64);
-    pb.set_style(
-        ProgressStyle::with_template("{prefix} [{elapsed}] {bar:30} {pos}/{len} starts")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    pb.set_prefix("estimate");
-    let t0 = std::time::Instant::now();
-    let tick = || pb.inc(1);
-    let est = estimate(&side, &seg, fs, &analysis.modes, &ep, &tick)
-        .with_context(|| format!("estimating the material of {}", a.audio.display()))?;
-    pb.finish_and_clear();
-    let elapsed_s = t0.elapsed().as_secs_f64();
+    let query = parse_vec3(&a.hit)?;
     let name = a.name.clone().unwrap_or_else(|| {
         a.audio
             .file_stem()
             .map_or("estimated".into(), |s| s.to_string_lossy().into_owned())
     });
-    // Ren §6.1: the residual against the estimated modes on this object at this hit.
-    let estimated_modes = resound::estimate::forward_modes(
-        &side.eigenvalues0,
-        &side.gains0,
-        side.gamma0,
-        &est.params,
-        0.5 * fs,
+    let ap = AnalyzeParams {
+        highpass_hz: a.highpass_hz,
+        ..AnalyzeParams::default()
+    };
+    let (_, analysis) = analyze_file(&a.audio, &RecordingParams::default(), &ap)?;
+    warn_all(&analysis.warnings);
+    let model = load_model(&a.mesh, a.scale, a.modes, &a.reference_material)?;
+    let hit = snap(&model, query)?;
+    let params = EstimateMaterialParams {
+        name: name.clone(),
+        residual: !a.no_residual,
+        recording_name: a.audio.display().to_string(),
+        object_name: a.mesh.display().to_string(),
+        ..Default::default()
+    };
+    let pb = bar(
+        "estimate",
+        start_count(&model, &hit, &analysis, &params.estimate) as u64,
+        "starts",
     );
-    let residual = if a.no_residual {
-        None
-    } else {
-        let mut r =
-            resound::synth::residual::compute_residual(&seg, fs, &analysis.modes, &estimated_modes);
-        r.samples.truncate((MAX_RESIDUAL_S * fs) as usize);
-        Some(r)
-    };
-    let material = SoundMaterial {
-        residual,
-        provenance: Some(Provenance {
-            recording: a.audio.display().to_string(),
-            mesh: a.mesh.display().to_string(),
-            hit: point,
-            metric: est.metric,
-            features: analysis.modes.clone(),
-        }),
-        ..SoundMaterial::rayleigh(
-            &name,
-            est.params.alpha,
-            est.params.beta,
-            est.params.gamma,
-            est.params.sigma,
-        )
-    };
+    let tick = || pb.inc(1);
+    let (material, info) = estimate_material(&analysis, &model, &hit, &params, &tick)?;
+    pb.finish_and_clear();
+    warn_all(&info.warnings);
     if let Some(o) = &a.output {
         write_material(o, &material)?;
     }
     if let Some(path) = &a.plot {
-        let objective = Objective::new(&side, &seg, fs, &analysis.modes, ep.floor_db, ep.route)?;
-        let estimated = objective.modes(&est.params);
-        let level = |m: &resound::core::DampedMode| {
-            resound::signal::mode_level(m, resound::signal::LEVEL_WINDOW_S)
-        };
-        let floor = analysis.modes.iter().map(level).fold(0.0, f64::max) * 1e-3;
-        let shown: Vec<_> = estimated
-            .into_iter()
-            .filter(|m| level(m) >= floor)
-            .collect();
-        crate::plot::estimate_png(
+        let title = a
+            .audio
+            .file_name()
+            .map_or(String::new(), |s| s.to_string_lossy().into_owned());
+        estimate_plot(
             path,
-            &crate::plot::EstimatePlot {
-                title: &a
-                    .audio
-                    .file_name()
-                    .map_or(String::new(), |s| s.to_string_lossy().into_owned()),
-                reference: &analysis.modes,
-                estimated: &shown,
-                alpha: est.params.alpha,
-                beta: est.params.beta,
-                reference_image: objective.reference_image(),
-                estimated_image: &objective.image(&est.params),
-            },
+            &title,
+            &analysis,
+            &model,
+            &hit,
+            &info,
+            &params.estimate,
         )?;
     }
     if a.name.is_some() {
-        let mut lib = Library::open(&library_path(&a.library)?)?;
-        lib.put(&material)?;
+        open_library(a.library.as_deref())?.put(&material)?;
     }
-    let lowest_model_hz = model.freq_hz(0) * (est.params.gamma / gamma0).sqrt();
-    if lowest_model_hz > band_top {
-        eprintln!("warning: the object's lowest mode ({lowest_model_hz:.0} Hz) lies above every recorded mode");
-    }
+    let p = &info.params;
     if a.json {
-        let v = json!({
-            "name": name,
-            "alpha": est.params.alpha,
-            "beta": est.params.beta,
-            "gamma": est.params.gamma,
-            "sigma": est.params.sigma,
-            "metric": est.metric,
-            "elapsed_s": elapsed_s,
-            "starts": est.starts,
-            "evaluations": est.evaluations,
-            "reference_modes": analysis.modes.len(),
+        return print_json(&Output {
+            name: &name,
+            alpha: p.alpha,
+            beta: p.beta,
+            gamma: p.gamma,
+            sigma: p.sigma,
+            metric: info.metric,
+            elapsed_s: info.elapsed_s,
+            starts: info.starts,
+            evaluations: info.evaluations,
+            reference_modes: info.reference_modes,
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
-    } else {
-        println!(
-            "{name}: alpha {:.4e} 1/s, beta {:.4e} s, gamma {:.4e} m²/s², sigma {:.4e}; metric {:.4e} ({} starts, {} evaluations, {:.1} s)",
-            est.params.alpha, est.params.beta, est.params.gamma, est.params.sigma, est.metric, est.starts, est.evaluations, elapsed_s
-        );
     }
+    println!(
+        "{name}: alpha {:.4e} 1/s, beta {:.4e} s, gamma {:.4e} m²/s², sigma {:.4e}; metric {:.4e} ({} starts, {} evaluations, {:.1} s)",
+        p.alpha, p.beta, p.gamma, p.sigma, info.metric, info.starts, info.evaluations, info.elapsed_s
+    );
     Ok(())
 }
 
@@ -328,25 +239,11 @@ pub struct ExportArg {
     pub library: Option<PathBuf>,
 }
 
-pub fn open(p: &Option<PathBuf>) -> Result<Library> {
-    let path = library_path(p)?;
-    Library::open(&path).with_context(|| format!("opening the material library {}", path.display()))
-}
-
-pub fn get(lib: &Library, name: &str) -> Result<SoundMaterial> {
-    lib.get(name)?.with_context(|| {
-        format!(
-            "no material {name:?} in the library (known: {})",
-            lib.names().unwrap_or_default().join(", ")
-        )
-    })
-}
-
 /// Runs `materials`.
 pub fn run_materials(c: MaterialsCmd) -> Result<()> {
     match c {
         MaterialsCmd::List(a) => {
-            let lib = open(&a.library)?;
+            let lib = open_library(a.library.as_deref())?;
             for n in lib.names()? {
                 let m = get(&lib, &n)?;
                 println!(
@@ -364,21 +261,21 @@ pub fn run_materials(c: MaterialsCmd) -> Result<()> {
             }
         }
         MaterialsCmd::Show(a) => {
-            let lib = open(&a.library)?;
+            let lib = open_library(a.library.as_deref())?;
             println!("{}", serde_json::to_string_pretty(&get(&lib, &a.name)?)?);
         }
         MaterialsCmd::Import(a) => {
             let m = read_material(&a.file)?;
-            let mut lib = open(&a.library)?;
+            let mut lib = open_library(a.library.as_deref())?;
             lib.put(&m)?;
             eprintln!("imported {:?}", m.name);
         }
         MaterialsCmd::Export(a) => {
-            let lib = open(&a.library)?;
+            let lib = open_library(a.library.as_deref())?;
             write_material(&a.file, &get(&lib, &a.name)?)?;
         }
         MaterialsCmd::Remove(a) => {
-            let mut lib = open(&a.library)?;
+            let mut lib = open_library(a.library.as_deref())?;
             if !lib.remove(&a.name)? {
                 bail!("no material {:?} in the library", a.name);
             }

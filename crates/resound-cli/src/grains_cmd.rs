@@ -3,11 +3,14 @@
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
+use resound::grain_files::{
+    load_recordings, recording_index, summary, DictionarySummary, KindRule,
+};
 use resound::grains::quality::spectral_convergence_db;
 use resound::grains::resynth::{resynthesize, ResynthParams};
-use resound::grains::{guess_contact, AnalyzeParams, Contact, Dictionary, Part, Recording, Stage};
-use serde_json::{json, Value};
-use std::path::{Path, PathBuf};
+use resound::grains::{AnalyzeParams, Contact, Stage};
+use serde::Serialize;
+use std::path::PathBuf;
 
 /// `resound grains …`.
 #[derive(Subcommand, Debug)]
@@ -101,61 +104,16 @@ pub struct InfoArgs {
     pub dictionary: PathBuf,
 }
 
-fn contact_of(kind: KindArg, name: &str, x: &[f32], fs: f64) -> Contact {
-    match kind {
-        KindArg::Impact => Contact::Impact,
-        KindArg::Rolling => Contact::Rolling,
-        KindArg::Sliding => Contact::Sliding,
-        KindArg::Continuous => Contact::Continuous,
-        KindArg::Auto => {
-            let n = name.to_lowercase();
-            if n.contains("roll") {
-                Contact::Rolling
-            } else if n.contains("slid") || n.contains("scrap") {
-                Contact::Sliding
-            } else {
-                guess_contact(x, fs)
-            }
+impl KindArg {
+    fn rule(self) -> KindRule {
+        match self {
+            KindArg::Auto => KindRule::Auto,
+            KindArg::Impact => KindRule::Fixed(Contact::Impact),
+            KindArg::Rolling => KindRule::Fixed(Contact::Rolling),
+            KindArg::Sliding => KindRule::Fixed(Contact::Sliding),
+            KindArg::Continuous => KindRule::Fixed(Contact::Continuous),
         }
     }
-}
-
-/// Loads recordings (with optional `kind:` prefixes) as mono f32 at one rate.
-pub fn load_recordings(
-    specs: &[String],
-    kind: KindArg,
-    rate: Option<u32>,
-) -> Result<(Vec<Recording>, f64, usize)> {
-    let mut out = Vec::new();
-    let mut fs: Option<u32> = rate;
-    let mut bytes = 0usize;
-    for spec in specs {
-        let (k, path) = match spec.split_once(':') {
-            Some((p, rest)) if KindArg::from_str(p, true).is_ok() && !Path::new(spec).exists() => {
-                (KindArg::from_str(p, true).unwrap_or(kind), rest)
-            }
-            _ => (kind, spec.as_str()),
-        };
-        let path = Path::new(path);
-        bytes += std::fs::metadata(path).map_or(0, |m| m.len() as usize);
-        let clip = resound::io::load_audio(path)?;
-        let x = clip.mono(None, path)?;
-        let target = *fs.get_or_insert(clip.sample_rate_hz);
-        let x = resound::signal::resample::resample(&x, clip.sample_rate_hz, target)
-            .map_err(anyhow::Error::msg)
-            .with_context(|| format!("{}", path.display()))?;
-        let samples: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-        let name = path.file_stem().map_or(String::from("recording"), |s| {
-            s.to_string_lossy().into_owned()
-        });
-        let contact = contact_of(k, &name, &samples, f64::from(target));
-        out.push(Recording {
-            name,
-            contact,
-            samples,
-        });
-    }
-    Ok((out, f64::from(fs.unwrap_or(44_100)), bytes))
 }
 
 fn progress_bar() -> ProgressBar {
@@ -167,62 +125,19 @@ fn progress_bar() -> ProgressBar {
     pb
 }
 
-/// Figures of a dictionary, with each recording's rebuild quality when the originals are given.
-pub fn summary(d: &Dictionary, originals: Option<&[Recording]>) -> Result<Value> {
-    let mut recs = Vec::new();
-    for (i, r) in d.recordings.iter().enumerate() {
-        let grains = d
-            .grains
-            .iter()
-            .filter(|g| g.recording as usize == i)
-            .count();
-        let peaks: usize = d.patterns_of(i).map(|(_, p)| p.peaks.len()).sum();
-        let grain_bytes: usize = d
-            .grains
-            .iter()
-            .filter(|g| g.recording as usize == i)
-            .map(|g| g.samples.len() * resound::grains::GRAIN_SAMPLE_BYTES)
-            .sum();
-        let stored = grain_bytes + peaks * resound::grains::PEAK_BYTES;
-        let mut v = json!({
-            "name": r.name,
-            "contact": r.contact,
-            "duration_s": f64::from(r.samples) / d.sample_rate_hz,
-            "grains": grains,
-            "peaks": peaks,
-            "grain_bytes": grain_bytes,
-            "compression_ratio": (r.samples as usize * resound::grains::GRAIN_SAMPLE_BYTES) as f64
-                / stored.max(1) as f64,
-        });
-        if let Some(o) = originals {
-            let y = resynthesize(d, i, &ResynthParams::default())?;
-            v["spectral_convergence_db"] =
-                json!(spectral_convergence_db(&o[i].samples, &y, d.sample_rate_hz));
-        }
-        recs.push(v);
-    }
-    let count = |p: Part| d.grains_of(p).count();
-    let stored = d.grain_bytes() + d.pattern_bytes();
-    Ok(json!({
-        "sample_rate_hz": d.sample_rate_hz,
-        "grains": d.grains.len(),
-        "impulsive": count(Part::Impulsive),
-        "sinusoidal": count(Part::Sinusoidal),
-        "transient": count(Part::Transient),
-        "median_grain_ms": 1e3 * d.median_len(Part::Impulsive) as f64 / d.sample_rate_hz,
-        "original_bytes": d.original_bytes(),
-        "grain_bytes": d.grain_bytes(),
-        "pattern_bytes": d.pattern_bytes(),
-        "compression_ratio": d.original_bytes() as f64 / stored.max(1) as f64,
-        "recordings": recs,
-    }))
+#[derive(Serialize)]
+struct AnalyzeOutput<'a> {
+    #[serde(flatten)]
+    summary: &'a DictionarySummary,
+    file_bytes: u64,
+    analysis: &'a resound::grains::AnalyzeInfo,
 }
 
 /// Runs `grains`.
 pub fn run(c: GrainsCmd) -> Result<()> {
     match c {
         GrainsCmd::Analyze(a) => {
-            let (recs, fs, _) = load_recordings(&a.recordings, a.kind, a.sample_rate)?;
+            let (recs, fs, _) = load_recordings(&a.recordings, a.kind.rule(), a.sample_rate)?;
             let mut params = AnalyzeParams::default();
             params.segment.min_db = a.min_db;
             params.pattern.peaks_per_part = a.peaks;
@@ -248,55 +163,34 @@ pub fn run(c: GrainsCmd) -> Result<()> {
             let size = resound::io::grains_file::save(&a.output, &dict)?;
             // Quality is measured on what was saved (16-bit grains).
             let saved = resound::io::grains_file::load(&a.output)?;
-            let mut v = summary(&saved, Some(&recs))?;
-            v["file_bytes"] = json!(size);
-            v["analysis"] = serde_json::to_value(&info)?;
+            let sum = summary(&saved, Some(&recs))?;
             if a.json {
-                println!("{}", serde_json::to_string_pretty(&v)?);
+                crate::util::print_json(&AnalyzeOutput {
+                    summary: &sum,
+                    file_bytes: size as u64,
+                    analysis: &info,
+                })?;
             } else {
                 eprintln!(
                     "wrote {} ({} grains: {} impulsive, {} sinusoidal, {} transient; {} bytes, compression {:.2}:1)",
-                    a.output.display(),
-                    v["grains"],
-                    v["impulsive"],
-                    v["sinusoidal"],
-                    v["transient"],
-                    size,
-                    v["compression_ratio"].as_f64().unwrap_or(f64::NAN)
+                    a.output.display(), sum.grains, sum.impulsive, sum.sinusoidal, sum.transient, size, sum.compression_ratio
                 );
-                for r in v["recordings"].as_array().into_iter().flatten() {
+                for r in &sum.recordings {
                     eprintln!(
                         "  {:<28} {:<10} {:>6.2} s {:>5} grains, rebuild {:>6.1} dB",
-                        r["name"].as_str().unwrap_or(""),
-                        r["contact"].as_str().unwrap_or(""),
-                        r["duration_s"].as_f64().unwrap_or(0.0),
-                        r["grains"],
-                        r["spectral_convergence_db"].as_f64().unwrap_or(f64::NAN)
+                        r.name,
+                        format!("{:?}", r.contact).to_lowercase(),
+                        r.duration_s,
+                        r.grains,
+                        r.spectral_convergence_db.unwrap_or(f64::NAN)
                     );
                 }
             }
         }
         GrainsCmd::Resynth(a) => {
             let d = resound::io::grains_file::load(&a.dictionary)?;
-            let k = match a.recording.parse::<usize>() {
-                Ok(k) => k,
-                Err(_) => d
-                    .recordings
-                    .iter()
-                    .position(|r| r.name == a.recording)
-                    .with_context(|| {
-                        format!(
-                            "no recording '{}' in {} (it has: {})",
-                            a.recording,
-                            a.dictionary.display(),
-                            d.recordings
-                                .iter()
-                                .map(|r| r.name.as_str())
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        )
-                    })?,
-            };
+            let k = recording_index(&d, &a.recording)
+                .with_context(|| a.dictionary.display().to_string())?;
             let p = ResynthParams {
                 time_scale: a.time_scale,
                 variation: a.variation,
@@ -309,7 +203,7 @@ pub fn run(c: GrainsCmd) -> Result<()> {
             if let Some(r) = &a.reference {
                 let (o, _, _) = load_recordings(
                     &[r.to_string_lossy().into_owned()],
-                    KindArg::Impact,
+                    KindRule::Fixed(Contact::Impact),
                     Some(d.sample_rate_hz as u32),
                 )?;
                 println!(
@@ -317,15 +211,15 @@ pub fn run(c: GrainsCmd) -> Result<()> {
                     spectral_convergence_db(&o[0].samples, &y, d.sample_rate_hz)
                 );
             }
-            let peak = y.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-            let scale = if peak > 0.999 { 0.891 / peak } else { 1.0 };
-            if scale < 1.0 {
+            let mut out = y;
+            let level =
+                resound::synth::render::normalize(&mut out, resound::synth::render::CEILING)?;
+            if level.gain_db < 0.0 {
                 eprintln!(
                     "note: turned down by {:.1} dB to stay below full scale",
-                    -20.0 * scale.log10()
+                    -level.gain_db
                 );
             }
-            let out: Vec<f32> = y.iter().map(|v| v * scale).collect();
             resound::io::write_wav(
                 &a.output,
                 &out,
@@ -340,7 +234,7 @@ pub fn run(c: GrainsCmd) -> Result<()> {
         }
         GrainsCmd::Info(a) => {
             let d = resound::io::grains_file::load(&a.dictionary)?;
-            println!("{}", serde_json::to_string_pretty(&summary(&d, None)?)?);
+            crate::util::print_json(&summary(&d, None)?)?;
         }
     }
     Ok(())

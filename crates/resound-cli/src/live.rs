@@ -2,28 +2,15 @@
 //! offline rendering runs inside the audio callback (cpal), where it never allocates.
 
 use anyhow::Result;
-use resound::synth::BankMode;
+use resound::strike::Strike;
 
-/// What the audio callback plays: modes struck by a force pulse (through the engine) plus a
-/// precomputed signal (the residual, or a whole offline rendering).
-#[cfg_attr(not(feature = "live"), allow(dead_code))]
-pub struct LiveParts {
-    /// Modes with gains per N·s.
-    pub modes: Vec<BankMode>,
-    /// Force pulse, N per sample.
-    pub force: Vec<f32>,
-    /// Added to the engine's output from the first sample.
-    pub extra: Vec<f32>,
-    /// Output gain (the offline level check's).
-    pub gain: f32,
-}
-
-/// Plays `parts` for `seconds` on the default output device at `sample_rate`.
+/// Plays `strike` (its modes struck by its force through the engine, plus its added signal)
+/// at `gain` for `seconds` on the default output device at `sample_rate`.
 #[cfg(feature = "live")]
-pub fn play(parts: LiveParts, sample_rate: u32, seconds: f64) -> Result<()> {
+pub fn play(strike: &Strike, gain: f32, sample_rate: u32, seconds: f64) -> Result<()> {
     use anyhow::{anyhow, Context};
     use cpal::traits::{DeviceTrait, HostTrait, StreamTrait};
-    use resound::synth::{Engine, EngineParams};
+    use resound::synth::{BankMode, Engine, EngineParams};
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Arc;
 
@@ -44,12 +31,11 @@ pub fn play(parts: LiveParts, sample_rate: u32, seconds: f64) -> Result<()> {
     let mut engine = Engine::new(EngineParams {
         sample_rate_hz: f64::from(sample_rate),
         voices: 1,
-        modes_per_voice: parts.modes.len().max(1),
-        force_capacity: parts.force.len().max(1),
+        modes_per_voice: strike.modes.len().max(1),
+        force_capacity: strike.force.len().max(1),
         cull_level: 1e-7,
     })?;
-    let gain = parts.gain;
-    let modes: Vec<BankMode> = parts
+    let modes: Vec<BankMode> = strike
         .modes
         .iter()
         .map(|m| BankMode {
@@ -59,9 +45,9 @@ pub fn play(parts: LiveParts, sample_rate: u32, seconds: f64) -> Result<()> {
         .collect();
     if !modes.is_empty() {
         let v = engine.start(&modes, 1.0)?;
-        engine.excite(v, &parts.force, 0);
+        engine.excite(v, &strike.force, 0);
     }
-    let extra: Vec<f32> = parts.extra.iter().map(|v| v * gain).collect();
+    let extra: Vec<f32> = strike.extra.iter().map(|v| v * gain).collect();
     let mut mono = vec![0.0f32; 8192];
     let position = Arc::new(AtomicUsize::new(0));
     let pos_cb = Arc::clone(&position);
@@ -107,7 +93,7 @@ pub fn play(parts: LiveParts, sample_rate: u32, seconds: f64) -> Result<()> {
 
 /// Without the `live` feature there is no audio device support.
 #[cfg(not(feature = "live"))]
-pub fn play(_parts: LiveParts, _sample_rate: u32, _seconds: f64) -> Result<()> {
+pub fn play(_strike: &Strike, _gain: f32, _sample_rate: u32, _seconds: f64) -> Result<()> {
     anyhow::bail!(
         "this resound was built without live audio; rebuild with `cargo build --release --features live` (needs ALSA headers: libasound2-dev)"
     )

@@ -7,14 +7,12 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod analyze_cmd;
-mod bench;
 mod demo_cmd;
 mod estimate_cmd;
 mod grains_cmd;
 mod live;
 mod mesh_cmd;
 mod modal_cmd;
-mod plot;
 mod scene_cmd;
 mod scrape_cmd;
 mod stats_cmd;
@@ -66,10 +64,10 @@ enum Command {
     Model(modal_cmd::ModelInfoArgs),
     /// Run the benchmarks and print their figures (table or JSON).
     #[command(subcommand)]
-    Bench(bench::BenchCmd),
+    Bench(resound_bench::run::BenchCmd),
     /// One benchmark case in a fresh process (used by `bench` to measure peak memory).
     #[command(hide = true)]
-    BenchCase(bench::CaseArgs),
+    BenchCase(resound_bench::run::CaseArgs),
 }
 
 fn main() -> ExitCode {
@@ -87,8 +85,8 @@ fn main() -> ExitCode {
         Command::Stats(c) => stats_cmd::run(c),
         Command::Scrape(a) => scrape_cmd::run(a),
         Command::Grains(c) => grains_cmd::run(c),
-        Command::Bench(c) => bench::run(c),
-        Command::BenchCase(a) => bench::run_case(a),
+        Command::Bench(c) => resound_bench::run::run(c),
+        Command::BenchCase(a) => resound_bench::run::run_case(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,14 +1,12 @@
 //! `resound modal` and `resound model`.
 
-use crate::util::{parse_vec3, spinner, stage_message};
+use crate::util::{parse_vec3, print_json, spinner, stage_message, warn_all};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use resound::core::{Material, ModalModel};
-use resound::io::{load_mesh, model_file, mtx, LoadedMesh};
-use resound::modal::{
-    compute_modal_model_from_tets, compute_modal_model_keep_fem, ModalParams, ModalSolveInfo,
-};
-use serde_json::{json, Value};
+use resound::core::{Hit, Material, ModalModel};
+use resound::io::{model_file, mtx};
+use resound::modal::{ModalParams, ModalSolveInfo};
+use serde::Serialize;
 use std::path::PathBuf;
 
 /// Arguments of `resound modal`.
@@ -91,22 +89,155 @@ fn params(a: &ModalArgs) -> Result<ModalParams> {
     })
 }
 
+/// One mode in the JSON summary.
+#[derive(Serialize)]
+struct ModeRow {
+    freq_hz: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gain: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct MaterialRow<'a> {
+    name: &'a str,
+    youngs_modulus_pa: f64,
+    poisson_ratio: f64,
+    density_kg_m3: f64,
+}
+
+#[derive(Serialize)]
+struct HitRow {
+    point: [f64; 3],
+    normal: [f64; 3],
+    distance_m: f64,
+}
+
+#[derive(Serialize)]
+struct VoxelRow {
+    resolution: usize,
+    grid: [usize; 3],
+    voxel_size_m: [f64; 3],
+    fe_volume_m3: f64,
+    surface_volume_m3: f64,
+    repairs: Vec<String>,
+}
+
+/// The JSON of `modal` and `model`.
+#[derive(Serialize)]
+struct Summary<'a> {
+    dofs: usize,
+    elements: usize,
+    element: &'a str,
+    nnz: usize,
+    nnz_factor: usize,
+    assemble_s: f64,
+    factor_s: f64,
+    eigen_s: f64,
+    sturm_s: f64,
+    solve_s: f64,
+    operator_applications: usize,
+    max_rel_residual: f64,
+    sturm_count: Option<usize>,
+    rigid_modes_dropped: usize,
+    rigid_max_hz: f64,
+    material: MaterialRow<'a>,
+    surface_vertices: usize,
+    warnings: &'a [String],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    voxel: Option<VoxelRow>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    hit: Option<HitRow>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    load_ms: Option<f64>,
+    modes: Vec<ModeRow>,
+}
+
+fn summary<'a>(model: &'a ModalModel, info: &'a ModalSolveInfo, hit: Option<&Hit>) -> Summary<'a> {
+    let e = &info.eigen;
+    Summary {
+        dofs: info.dofs,
+        elements: info.elements,
+        element: info.element,
+        nnz: e.nnz_k,
+        nnz_factor: e.nnz_l,
+        assemble_s: info.assemble_s,
+        factor_s: e.factor_s,
+        eigen_s: e.eigen_s,
+        sturm_s: e.sturm_s,
+        solve_s: info.total_s,
+        operator_applications: e.applications,
+        max_rel_residual: e.max_rel_residual,
+        sturm_count: e.sturm_count,
+        rigid_modes_dropped: info.rigid_modes,
+        rigid_max_hz: info.rigid_max_hz,
+        material: MaterialRow {
+            name: &model.material.name,
+            youngs_modulus_pa: model.material.youngs_modulus,
+            poisson_ratio: model.material.poisson_ratio,
+            density_kg_m3: model.material.density,
+        },
+        surface_vertices: model.n_vertices(),
+        warnings: &info.warnings,
+        voxel: info.discretize.as_ref().map(|r| VoxelRow {
+            resolution: r.resolution,
+            grid: r.grid_dims,
+            voxel_size_m: r.voxel_size_m,
+            fe_volume_m3: r.fe_volume_m3,
+            surface_volume_m3: r.surface_volume_m3,
+            repairs: r.repair.lines(),
+        }),
+        hit: hit.map(|h| HitRow {
+            point: h.at.point,
+            normal: h.at.normal,
+            distance_m: h.at.distance,
+        }),
+        load_ms: None,
+        modes: (0..model.n_modes())
+            .map(|j| ModeRow {
+                freq_hz: model.freq_hz(j),
+                gain: hit.map(|h| h.gains[j]),
+            })
+            .collect(),
+    }
+}
+
+fn print_modes(model: &ModalModel, hit: Option<&Hit>) {
+    if let Some(h) = hit {
+        let (p, n) = (h.at.point, h.at.normal);
+        println!(
+            "hit at ({:.4}, {:.4}, {:.4}) m, normal ({:.3}, {:.3}, {:.3})",
+            p[0], p[1], p[2], n[0], n[1], n[2]
+        );
+        println!("{:>5} {:>12} {:>14}", "mode", "freq_hz", "gain_m_per_Ns");
+    } else {
+        println!("{:>5} {:>12}", "mode", "freq_hz");
+    }
+    for j in 0..model.n_modes() {
+        match hit {
+            Some(h) => println!(
+                "{:>5} {:>12.2} {:>14.4e}",
+                j + 1,
+                model.freq_hz(j),
+                h.gains[j]
+            ),
+            None => println!("{:>5} {:>12.2}", j + 1, model.freq_hz(j)),
+        }
+    }
+}
+
 /// Runs `resound modal`.
 pub fn run(a: ModalArgs) -> Result<()> {
     let material = Material::parse(&a.material)?;
     let hit = a.hit.as_deref().map(parse_vec3).transpose()?;
     let p = params(&a)?;
-    let mesh = load_mesh(&a.mesh, a.scale).context("loading the mesh")?;
     let pb = spinner("modal");
-    let progress = |s| stage_message(&pb, s);
     pb.set_message("voxelizing and assembling");
-    let result = match &mesh {
-        LoadedMesh::Surface(s) => compute_modal_model_keep_fem(s, &material, &p, &progress),
-        LoadedMesh::Tets(t) => compute_modal_model_from_tets(t, &material, &p, &progress),
-    };
+    let progress = |s| stage_message(&pb, s);
+    let solved = resound::object::solve_mesh_file(&a.mesh, a.scale, &material, &p, &progress);
     pb.finish_and_clear();
-    let (model, info, fem) = result.context("modal analysis")?;
-    if let Some(dir) = &a.export_matrices {
+    let solved = solved?;
+    let (model, info) = (&solved.model, &solved.info);
+    if let (Some(dir), Some(fem)) = (&a.export_matrices, &solved.fem) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
         let note = format!(
             "resound {} {}: {} DOFs; DOF 3*node+c",
@@ -125,112 +256,27 @@ pub fn run(a: ModalArgs) -> Result<()> {
             &format!("mass M (kg)\n{note}"),
         )?;
     }
-    for w in &info.warnings {
-        eprintln!("warning: {w}");
-    }
+    warn_all(&info.warnings);
     if let Some(r) = info.discretize.as_ref() {
         for l in r.repair.lines() {
             eprintln!("repaired: {l}");
         }
     }
     if let Some(out) = &a.output {
-        model_file::save(out, &model).with_context(|| format!("writing {}", out.display()))?;
+        model_file::save(out, model).with_context(|| format!("writing {}", out.display()))?;
     }
-    let gains = match hit {
-        Some(h) => Some(hit_gains(&model, h)?),
-        None => None,
-    };
+    let hit = hit.map(|h| model.hit(h)).transpose()?;
     if a.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&summary(&model, &info, gains.as_ref()))?
-        );
-    } else {
-        print_table(&model, &info, gains.as_ref());
+        return print_json(&summary(model, info, hit.as_ref()));
     }
-    Ok(())
-}
-
-/// Gains per mode, surface point (m), unit normal, distance from the query (m).
-pub type Hit = (Vec<f64>, [f64; 3], [f64; 3], f64);
-
-pub fn hit_gains(model: &ModalModel, h: [f64; 3]) -> Result<Hit> {
-    let (lo, hi) = resound::core::geometry::bbox(&model.vertices);
-    let diag = (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt();
-    let sp = model.locate_hit(h, 0.05 * diag)?;
-    Ok((model.gains(&sp), sp.point, sp.normal, sp.distance))
-}
-
-fn summary(model: &ModalModel, info: &ModalSolveInfo, gains: Option<&Hit>) -> Value {
-    let modes: Vec<Value> = (0..model.n_modes())
-        .map(|j| match gains {
-            Some(g) => json!({"freq_hz": model.freq_hz(j), "gain": g.0[j]}),
-            None => json!({"freq_hz": model.freq_hz(j)}),
-        })
-        .collect();
-    let mut v = json!({
-        "dofs": info.dofs,
-        "elements": info.elements,
-        "element": info.element,
-        "nnz": info.eigen.nnz_k,
-        "nnz_factor": info.eigen.nnz_l,
-        "assemble_s": info.assemble_s,
-        "factor_s": info.eigen.factor_s,
-        "eigen_s": info.eigen.eigen_s,
-        "sturm_s": info.eigen.sturm_s,
-        "solve_s": info.total_s,
-        "operator_applications": info.eigen.applications,
-        "max_rel_residual": info.eigen.max_rel_residual,
-        "sturm_count": info.eigen.sturm_count,
-        "rigid_modes_dropped": info.rigid_modes,
-        "rigid_max_hz": info.rigid_max_hz,
-        "material": {
-            "name": model.material.name,
-            "youngs_modulus_pa": model.material.youngs_modulus,
-            "poisson_ratio": model.material.poisson_ratio,
-            "density_kg_m3": model.material.density,
-        },
-        "surface_vertices": model.n_vertices(),
-        "warnings": info.warnings,
-        "modes": modes,
-    });
-    if let Some(r) = &info.discretize {
-        v["voxel"] = json!({
-            "resolution": r.resolution,
-            "grid": r.grid_dims,
-            "voxel_size_m": r.voxel_size_m,
-            "fe_volume_m3": r.fe_volume_m3,
-            "surface_volume_m3": r.surface_volume_m3,
-            "repairs": r.repair.lines(),
-        });
-    }
-    if let Some(g) = gains {
-        v["hit"] = json!({"point": g.1, "normal": g.2, "distance_m": g.3});
-    }
-    v
-}
-
-fn print_table(model: &ModalModel, info: &ModalSolveInfo, gains: Option<&Hit>) {
+    let e = &info.eigen;
     println!(
         "{} elements ({}), {} DOFs, {} modes in {:.2} s (assemble {:.2} s, factor {:.2} s, Lanczos {:.2} s, Sturm {:.2} s); max residual {:.1e}",
         info.elements, info.element, info.dofs, model.n_modes(), info.total_s, info.assemble_s,
-        info.eigen.factor_s, info.eigen.eigen_s, info.eigen.sturm_s, info.eigen.max_rel_residual
+        e.factor_s, e.eigen_s, e.sturm_s, e.max_rel_residual
     );
-    if let Some(g) = gains {
-        println!(
-            "hit at ({:.4}, {:.4}, {:.4}) m, normal ({:.3}, {:.3}, {:.3})",
-            g.1[0], g.1[1], g.1[2], g.2[0], g.2[1], g.2[2]
-        );
-        println!("{:>5} {:>12} {:>14}", "mode", "freq_hz", "gain_m_per_Ns");
-    } else {
-        println!("{:>5} {:>12}", "mode", "freq_hz");
-    }
-    for j in 0..model.n_modes() {
-        match gains {
-            Some(g) => println!("{:>5} {:>12.2} {:>14.4e}", j + 1, model.freq_hz(j), g.0[j]),
-            None => println!("{:>5} {:>12.2}", j + 1, model.freq_hz(j)),
-        }
-    }
+    print_modes(model, hit.as_ref());
+    Ok(())
 }
 
 /// Runs `resound model`.
@@ -241,35 +287,28 @@ pub fn run_info(a: ModelInfoArgs) -> Result<()> {
     if let Some(m) = &a.material {
         model = model.rescaled(&Material::parse(m)?)?;
     }
-    let gains = a
+    let hit = a
         .hit
         .as_deref()
         .map(parse_vec3)
         .transpose()?
-        .map(|h| hit_gains(&model, h))
+        .map(|h| model.hit(h))
         .transpose()?;
     if a.json {
-        let mut info = ModalSolveInfo {
+        let info = ModalSolveInfo {
             dofs: model.fem_dofs as usize,
             elements: model.fem_elements as usize,
             ..Default::default()
         };
-        info.element = "";
-        let mut v = summary(&model, &info, gains.as_ref());
-        v["load_ms"] = json!(load_ms);
-        println!("{}", serde_json::to_string_pretty(&v)?);
-    } else {
-        println!(
-            "{}: {} modes, {} surface vertices, material {} (E {:.3e} Pa, nu {}, rho {} kg/m^3); loaded in {load_ms:.2} ms",
-            a.model.display(), model.n_modes(), model.n_vertices(), model.material.name,
-            model.material.youngs_modulus, model.material.poisson_ratio, model.material.density
-        );
-        for j in 0..model.n_modes() {
-            match &gains {
-                Some(g) => println!("{:>5} {:>12.2} {:>14.4e}", j + 1, model.freq_hz(j), g.0[j]),
-                None => println!("{:>5} {:>12.2}", j + 1, model.freq_hz(j)),
-            }
-        }
+        let mut s = summary(&model, &info, hit.as_ref());
+        s.load_ms = Some(load_ms);
+        return print_json(&s);
     }
+    let m = &model.material;
+    println!(
+        "{}: {} modes, {} surface vertices, material {} (E {:.3e} Pa, nu {}, rho {} kg/m^3); loaded in {load_ms:.2} ms",
+        a.model.display(), model.n_modes(), model.n_vertices(), m.name, m.youngs_modulus, m.poisson_ratio, m.density
+    );
+    print_modes(&model, hit.as_ref());
     Ok(())
 }

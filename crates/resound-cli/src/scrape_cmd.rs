@@ -1,7 +1,6 @@
 //! `resound scrape`: a probe scraped over a surface texture (Traer et al. 2019 §4).
 
-use crate::estimate_cmd::load_model;
-use crate::modal_cmd::hit_gains;
+use crate::estimate_cmd::{load_model, snap};
 use crate::synth_cmd::{load_sound_material, FormatArg};
 use crate::util::parse_vec3;
 use anyhow::{bail, Context, Result};
@@ -10,7 +9,7 @@ use resound::core::DampedMode;
 use resound::io::{write_wav, WavFormat};
 use resound::synth::render::{bank_modes, normalize, REFERENCE_IMPULSE_N_S};
 use resound::synth::scrape::{positions, scrape, scrape_force, ScrapeParams, Surface};
-use serde_json::json;
+use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `scrape`.
@@ -121,27 +120,20 @@ fn read_trajectory(path: &Path) -> Result<Vec<(f64, f64)>> {
 
 fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
     if let Some(p) = &a.stats {
-        let s = crate::stats_cmd::load(p)?;
+        let s = resound::files::load_stats(p)?;
         return Ok(s.sample(a.seed)?);
     }
     if let Some(p) = &a.modes {
-        let text =
-            std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-        let v: serde_json::Value =
-            serde_json::from_str(&text).with_context(|| format!("{}: not JSON", p.display()))?;
-        let m: Vec<DampedMode> = serde_json::from_value(v["modes"].clone())
-            .with_context(|| format!("{}: no \"modes\" list", p.display()))?;
-        return Ok(m);
+        return Ok(resound::files::load_modes(p)?);
     }
     let (Some(spec), Some(mesh), Some(hit)) = (&a.material, &a.mesh, &a.hit) else {
         bail!("give the scraped object: --stats, --modes, or --material with --mesh and --hit");
     };
     let material = load_sound_material(spec, &a.library)?;
-    material.validate().map_err(anyhow::Error::msg)?;
     let model = load_model(mesh, 1.0, 200, "ceramic")?;
-    let (gains0, _, _, _) = hit_gains(&model, parse_vec3(hit)?)?;
+    let hit = snap(&model, parse_vec3(hit)?)?;
     let gamma0 = model.material.youngs_modulus / model.material.density;
-    Ok(material.modes(&model.eigenvalues, &gains0, gamma0, 0.5 * fs))
+    Ok(material.modes(&model.eigenvalues, &hit.gains, gamma0, 0.5 * fs))
 }
 
 /// Runs `scrape`.
@@ -202,7 +194,7 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
     bm.iter_mut().for_each(|m| m.gain /= REFERENCE_IMPULSE_N_S);
     let force = scrape_force(&surface, &x, fs, &p);
     let mut out = scrape(&bm, &force, &x, fs, a.irs, a.seed)?;
-    let level = normalize(&mut out, 0.891)?;
+    let level = normalize(&mut out, resound::synth::render::CEILING)?;
     if level.gain_db < 0.0 {
         eprintln!(
             "note: peak {:.2} of full scale; turned down by {:.1} dB (no clipping)",
@@ -217,16 +209,21 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
         .map(|(a, b)| (b - a).abs())
         .sum::<f64>();
     if a.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&json!({
-                "output": a.output.display().to_string(),
-                "modes": modes.len(),
-                "path_m": path_m,
-                "peak": level.peak_before,
-                "gain_db": level.gain_db,
-            }))?
-        );
+        #[derive(Serialize)]
+        struct Output {
+            output: String,
+            modes: usize,
+            path_m: f64,
+            peak: f32,
+            gain_db: f32,
+        }
+        crate::util::print_json(&Output {
+            output: a.output.display().to_string(),
+            modes: modes.len(),
+            path_m,
+            peak: level.peak_before,
+            gain_db: level.gain_db,
+        })?;
     } else {
         eprintln!("wrote {} ({:.2} m scraped)", a.output.display(), path_m);
     }

@@ -2,7 +2,6 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
-use resound::io::atomic::write_atomic;
 use resound::stats::ModeStatistics;
 use std::path::{Path, PathBuf};
 
@@ -46,26 +45,7 @@ pub struct ImportArgs {
 }
 
 fn save(path: &Path, s: &ModeStatistics) -> Result<()> {
-    let text = serde_json::to_string_pretty(s)?;
-    write_atomic(path, |w| w.write_all(text.as_bytes()))?;
-    Ok(())
-}
-
-/// Reads a statistics file.
-pub fn load(path: &Path) -> Result<ModeStatistics> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let s: ModeStatistics = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not a statistics file", path.display()))?;
-    let dim = 3 * s.modes;
-    if s.modes == 0 || s.mean.len() != dim || s.covariance.len() != dim * dim {
-        bail!(
-            "{}: inconsistent statistics ({} modes)",
-            path.display(),
-            s.modes
-        );
-    }
-    Ok(s)
+    Ok(resound::files::write_json(path, s)?)
 }
 
 /// Runs `stats`.
@@ -75,25 +55,17 @@ pub fn run(c: StatsCmd) -> Result<()> {
             let mut all = Vec::new();
             let mut transients = Vec::new();
             for p in &a.recordings {
-                let clip = resound::io::load_audio(p)?;
-                let x = clip.mono(None, p)?;
                 let params = resound::signal::AnalyzeParams {
                     highpass_hz: a.highpass_hz,
                     ..Default::default()
                 };
-                let r = resound::signal::analyze(&x, f64::from(clip.sample_rate_hz), &params)
-                    .with_context(|| format!("analysing {}", p.display()))?;
+                let rp = resound::recording::RecordingParams::default();
+                let (_, r) = resound::recording::analyze_file(p, &rp, &params)?;
                 eprintln!("{}: {} modes", p.display(), r.modes.len());
-                // The transient: what the modes leave of the strike (Traer eq. 3).
-                let fs = f64::from(clip.sample_rate_hz);
-                let onset = (r.onset_s * fs).round() as usize;
-                let mut seg = x[onset.min(x.len())..].to_vec();
-                if let Some(f) = a.highpass_hz {
-                    resound::signal::filter::highpass_zero_phase(&mut seg, f, fs);
-                }
-                seg.truncate(r.samples);
-                let modal = resound::core::damped::synthesize(&r.modes, fs, seg.len());
-                let residual: Vec<f64> = seg.iter().zip(&modal).map(|(a, b)| a - b).collect();
+                // The transient: what the modes leave of the analysed strike (Traer eq. 3).
+                let fs = r.sample_rate_hz;
+                let modal = resound::core::damped::synthesize(&r.modes, fs, r.segment.len());
+                let residual: Vec<f64> = r.segment.iter().zip(&modal).map(|(a, b)| a - b).collect();
                 transients.push(resound::stats::transient::fit_transient(&residual, fs, 30));
                 all.push(r.modes);
             }

@@ -1,8 +1,9 @@
-//! Small helpers shared by subcommands.
+//! Small helpers shared by subcommands: value parsers, progress, output.
 
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use resound::modal::Stage;
+use serde::Serialize;
 use std::time::Duration;
 
 /// Parses `x,y,z`.
@@ -31,7 +32,7 @@ pub fn parse_list(s: &str) -> Result<Vec<f64>> {
     Ok(v)
 }
 
-/// A spinner on stderr (hidden when stderr is not a terminal) that follows solver stages.
+/// A spinner on stderr (hidden when stderr is not a terminal).
 pub fn spinner(label: &str) -> ProgressBar {
     let pb = ProgressBar::new_spinner();
     pb.set_style(
@@ -40,6 +41,19 @@ pub fn spinner(label: &str) -> ProgressBar {
     );
     pb.set_prefix(label.to_string());
     pb.enable_steady_tick(Duration::from_millis(120));
+    pb
+}
+
+/// A bar of `len` steps on stderr: `{pos}/{len} {unit}`.
+pub fn bar(label: &str, len: u64, unit: &str) -> ProgressBar {
+    let pb = ProgressBar::new(len);
+    pb.set_style(
+        ProgressStyle::with_template(&format!(
+            "{{prefix}} [{{elapsed}}] {{bar:30}} {{pos}}/{{len}} {unit}"
+        ))
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    pb.set_prefix(label.to_string());
     pb
 }
 
@@ -52,5 +66,18 @@ pub fn stage_message(pb: &ProgressBar, s: Stage) {
         }
         Stage::SturmCheck => pb.set_message("checking the mode count (Sturm)"),
         _ => {}
+    }
+}
+
+/// Prints `v` as pretty JSON on stdout.
+pub fn print_json<T: Serialize>(v: &T) -> Result<()> {
+    println!("{}", serde_json::to_string_pretty(v)?);
+    Ok(())
+}
+
+/// Prints the library's warnings on stderr.
+pub fn warn_all(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("warning: {w}");
     }
 }

@@ -24,5 +24,5 @@ pub mod units;
 
 pub use damped::DampedMode;
 pub use material::{Material, MaterialError};
-pub use modal_model::{ModalModel, ModalModelError};
+pub use modal_model::{Hit, ModalModel, ModalModelError};
 pub use rayleigh::{Damping, ModeDamping, Provenance, Residual, SoundMaterial};

@@ -59,6 +59,15 @@ pub struct ModalModel {
     pub fem_elements: u64,
 }
 
+/// A hit snapped to a model's surface ([`ModalModel::hit`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Hit {
+    /// The surface point (position, normal, distance from the query).
+    pub at: SurfacePoint,
+    /// Gain a⁰_j of each mode there, m per N·s.
+    pub gains: Vec<f64>,
+}
+
 impl ModalModel {
     /// Number of modes.
     pub fn n_modes(&self) -> usize {
@@ -171,6 +180,22 @@ impl ModalModel {
             });
         }
         Ok(sp)
+    }
+
+    /// Snaps a hit to the surface: the nearest surface point to `query` (m), accepted within
+    /// 5 % of the bounding-box diagonal, with the gains a⁰ there ([`ModalModel::gains`]). The
+    /// one place a hit point becomes gains (analysis, estimation, synthesis, `modal --hit`).
+    ///
+    /// # Errors
+    /// [`ModalModelError::HitOffSurface`] when the point is farther from the surface.
+    pub fn hit(&self, query: [f64; 3]) -> Result<Hit, ModalModelError> {
+        let (lo, hi) = crate::geometry::bbox(&self.vertices);
+        let diag = (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt();
+        let at = self.locate_hit(query, 0.05 * diag)?;
+        Ok(Hit {
+            gains: self.gains(&at),
+            at,
+        })
     }
 
     /// Mode shape of mode `j` interpolated at a surface point (1/√kg).

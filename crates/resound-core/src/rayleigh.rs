@@ -83,7 +83,23 @@ pub fn damped_modes(
     decay: &dyn Fn(usize, f64) -> f64,
     max_freq_hz: f64,
 ) -> Vec<DampedMode> {
-    let mut out: Vec<DampedMode> = eigenvalues0
+    damped_modes_indexed(eigenvalues0, gains0, scale, sigma, decay, max_freq_hz)
+        .into_iter()
+        .map(|(_, m)| m)
+        .collect()
+}
+
+/// [`damped_modes`] with each kept mode's index into `eigenvalues0` (to look up its gains
+/// elsewhere, e.g. at every surface vertex).
+pub fn damped_modes_indexed(
+    eigenvalues0: &[f64],
+    gains0: &[f64],
+    scale: f64,
+    sigma: f64,
+    decay: &dyn Fn(usize, f64) -> f64,
+    max_freq_hz: f64,
+) -> Vec<(usize, DampedMode)> {
+    let mut out: Vec<(usize, DampedMode)> = eigenvalues0
         .iter()
         .zip(gains0)
         .enumerate()
@@ -95,15 +111,20 @@ pub fn damped_modes(
                 return None;
             }
             let f = w2.sqrt() / std::f64::consts::TAU;
-            (f < max_freq_hz).then(|| DampedMode {
-                freq_hz: f,
-                damping_per_s: d,
-                amplitude: sigma * a0.abs(),
-                phase_rad: if a0 < 0.0 { std::f64::consts::PI } else { 0.0 },
+            (f < max_freq_hz).then(|| {
+                (
+                    i,
+                    DampedMode {
+                        freq_hz: f,
+                        damping_per_s: d,
+                        amplitude: sigma * a0.abs(),
+                        phase_rad: if a0 < 0.0 { std::f64::consts::PI } else { 0.0 },
+                    },
+                )
             })
         })
         .collect();
-    out.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    out.sort_by(|a, b| a.1.freq_hz.total_cmp(&b.1.freq_hz));
     out
 }
 
@@ -180,6 +201,20 @@ impl SoundMaterial {
         gamma0: f64,
         max_freq_hz: f64,
     ) -> Vec<DampedMode> {
+        self.modes_indexed(eigenvalues0, gains0, gamma0, max_freq_hz)
+            .into_iter()
+            .map(|(_, m)| m)
+            .collect()
+    }
+
+    /// [`SoundMaterial::modes`] with each kept mode's index into `eigenvalues0`.
+    pub fn modes_indexed(
+        &self,
+        eigenvalues0: &[f64],
+        gains0: &[f64],
+        gamma0: f64,
+        max_freq_hz: f64,
+    ) -> Vec<(usize, DampedMode)> {
         let damping = self.damping();
         let decay = |i: usize, lambda: f64| {
             self.mode_damping
@@ -187,7 +222,7 @@ impl SoundMaterial {
                 .find(|o| o.mode == i)
                 .map_or_else(|| damping.damping_per_s(lambda), |o| o.damping_per_s)
         };
-        damped_modes(
+        damped_modes_indexed(
             eigenvalues0,
             gains0,
             self.gamma / gamma0,

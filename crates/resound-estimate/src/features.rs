@@ -19,8 +19,9 @@
 //! estimated points', and the Match Ratio Product is `−R·R̃` (eq. 26): in [−1, 0], −1 for a
 //! perfect match, and extra estimated modes that match nothing lower `R̃`.
 
-use crate::psycho::{bark, phon_for_spl, sone_for_phon, FULL_SCALE_DB_SPL};
 use resound_core::DampedMode;
+pub use resound_signal::psycho::sine_sone;
+use resound_signal::psycho::{bark, perceptual_weight};
 
 /// A mode in the transformed feature space with its weight.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,15 +34,6 @@ pub struct FeaturePoint {
     pub weight: f64,
 }
 
-/// Loudness in sone of a sine of amplitude `amplitude` (full scale = 1) at `freq_hz`.
-pub fn sine_sone(freq_hz: f64, amplitude: f64) -> f64 {
-    if !(amplitude > 0.0) {
-        return 0.0;
-    }
-    let spl = FULL_SCALE_DB_SPL + 20.0 * amplitude.log10();
-    sone_for_phon(phon_for_spl(freq_hz, spl))
-}
-
 impl FeaturePoint {
     /// The point of `mode`.
     pub fn of(mode: &DampedMode) -> Self {
@@ -51,11 +43,10 @@ impl FeaturePoint {
     /// The point of `mode` heard for at most `max_duration_s` (the recording's length: a mode
     /// that barely decays within a short recording must not outweigh the rest).
     pub fn within(mode: &DampedMode, max_duration_s: f64) -> Self {
-        let duration = (1.0 / mode.damping_per_s.max(1e-6)).min(max_duration_s.clamp(1e-3, 1.0));
         Self {
             x: bark(mode.freq_hz) / 0.5,
             y: 20.0 / mode.damping_per_s.max(1e-6),
-            weight: sine_sone(mode.freq_hz, mode.amplitude) * duration,
+            weight: perceptual_weight(mode, max_duration_s),
         }
     }
 }

@@ -13,9 +13,9 @@
 //!   then squared into bands. It equals the STFT route to about 1e-6 (test), window spread and
 //!   interference between overlapping modes included.
 
-use crate::psycho::{bark, phon_for_spl, sone_for_phon, FULL_SCALE_DB_SPL};
 use realfft::num_complex::Complex64;
 use resound_core::DampedMode;
+use resound_signal::psycho::{bark, phon_for_spl, sone_for_phon, FULL_SCALE_DB_SPL};
 use resound_signal::stft::{hann, ModeColumns, Spectrogram};
 
 /// Number of one-Bark bands.

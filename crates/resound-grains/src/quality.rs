@@ -1,6 +1,6 @@
 //! How close a resynthesis is to its original.
 
-use resound_synth::residual::{window_len_for, Stft};
+use resound_signal::sine_stft::{window_len_for, Stft};
 
 /// Spectral convergence in dB: `20 log10(‖ |X| − |Y| ‖_F / ‖ |X| ‖_F)` over STFT magnitudes
 /// (sine window of about 43 ms, hop a quarter of it). `estimate` is cut or zero-padded to the

@@ -8,7 +8,7 @@
 //! the transient part is the recording minus the sinusoidal part. The STFT (sine window, hop W/4)
 //! is a tight frame, so the two parts sum to the recording exactly.
 
-use resound_synth::residual::Stft;
+use resound_signal::sine_stft::Stft;
 
 /// SMS settings.
 #[derive(Clone, Debug, PartialEq)]

@@ -29,12 +29,39 @@ const MAGIC: &[u8; 8] = b"RSMODAL\0";
 pub const VERSION: u32 = 1;
 
 pub(crate) fn fnv1a(data: &[u8]) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325u64;
-    for &b in data {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0100_0000_01b3);
+    let mut h = Fnv1a::new();
+    h.write(data);
+    h.finish()
+}
+
+/// 64-bit FNV-1a, the one content hash of the workspace: the checksum of `.rmodal` and
+/// `.grains` files and the modal cache key of scenes. The same on every build and platform
+/// (unlike `std`'s `DefaultHasher`).
+#[derive(Clone, Copy, Debug)]
+pub struct Fnv1a(u64);
+
+impl Default for Fnv1a {
+    fn default() -> Self {
+        Self::new()
     }
-    h
+}
+
+impl Fnv1a {
+    /// The offset basis.
+    pub fn new() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+    /// Hashes `data` in.
+    pub fn write(&mut self, data: &[u8]) {
+        for &b in data {
+            self.0 ^= u64::from(b);
+            self.0 = self.0.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    /// The hash so far.
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
 }
 
 /// Encodes a model.

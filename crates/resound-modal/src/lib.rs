@@ -4,12 +4,11 @@
 //! ```
 //! use resound_core::Material;
 //! use resound_fem::primitive;
-//! use resound_modal::{compute_modal_model, ModalParams};
+//! use resound_modal::ModalBuilder;
 //! let bar = primitive::bar([0.3, 0.02, 0.01]);
-//! let params = ModalParams { n_modes: Some(3), resolution: 30, ..Default::default() };
-//! let (model, info) = compute_modal_model(&bar, &Material::preset("steel").unwrap(), &params, &|_| {}).unwrap();
-//! assert_eq!(model.n_modes(), 3);
-//! assert!(info.eigen.max_rel_residual <= 1e-3); // the default tolerance
+//! let steel = Material::preset("steel").unwrap();
+//! let solved = ModalBuilder::surface(&bar, &steel).modes(3).resolution(30).solve().unwrap();
+//! assert_eq!(solved.model.n_modes(), 3);
 //! ```
 //!
 //! # Conventions
@@ -23,8 +22,5 @@ pub mod eigen;
 pub mod model;
 
 pub use eigen::{solve_generalized, EigenInfo, EigenMethod, EigenParams, ModalError, Stage};
-pub use model::{
-    compute_modal_model, compute_modal_model_from_fem, compute_modal_model_from_tets,
-    compute_modal_model_keep_fem, ModalParams, ModalSolveInfo, ModelError,
-};
+pub use model::{Geometry, ModalBuilder, ModalParams, ModalSolution, ModalSolveInfo, ModelError};
 pub use resound_core::ModalModel;

@@ -55,7 +55,7 @@ impl Default for ModalParams {
     }
 }
 
-/// Errors of [`compute_modal_model`].
+/// Errors of [`ModalBuilder::solve`].
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum ModelError {
@@ -95,24 +95,133 @@ pub struct ModalSolveInfo {
     pub warnings: Vec<String>,
 }
 
-/// Voxelizes `mesh`, solves, and returns the modal model with shapes on the (repaired) surface.
-///
-/// # Errors
-/// [`ModelError`] for unusable meshes, materials, parameters or a failed solve.
-pub fn compute_modal_model(
-    mesh: &SurfaceMesh,
-    material: &Material,
-    params: &ModalParams,
-    progress: &(dyn Fn(Stage) + Sync),
-) -> Result<(ModalModel, ModalSolveInfo), ModelError> {
-    compute_modal_model_keep_fem(mesh, material, params, progress).map(|(m, i, _)| (m, i))
+/// What a modal model is computed from.
+#[derive(Clone, Copy, Debug)]
+pub enum Geometry<'a> {
+    /// A closed surface: repaired, voxelized into hex8i elements.
+    Surface(&'a SurfaceMesh),
+    /// A tet mesh used as is (quadratic tets).
+    Tets(&'a TetMesh),
+    /// An assembled model with `components` free parts (6 rigid modes each).
+    Fem {
+        /// The assembled K, M and surface.
+        fem: &'a FemModel,
+        /// Free parts.
+        components: usize,
+    },
 }
 
-/// As [`compute_modal_model`], also returning the assembled FEM model (e.g. to export K, M).
+/// The one way to build a [`ModalModel`] (rapier-style builder over [`ModalParams`]).
 ///
-/// # Errors
-/// As [`compute_modal_model`].
-pub fn compute_modal_model_keep_fem(
+/// ```
+/// use resound_core::Material;
+/// use resound_fem::primitive;
+/// use resound_modal::ModalBuilder;
+/// let bar = primitive::bar([0.3, 0.02, 0.01]);
+/// let steel = Material::preset("steel").unwrap();
+/// let solved = ModalBuilder::surface(&bar, &steel).modes(3).resolution(30).solve().unwrap();
+/// assert_eq!(solved.model.n_modes(), 3);
+/// assert!(solved.info.eigen.max_rel_residual <= 1e-3); // the default tolerance
+/// ```
+pub struct ModalBuilder<'a> {
+    geometry: Geometry<'a>,
+    material: &'a Material,
+    params: ModalParams,
+    progress: &'a (dyn Fn(Stage) + Sync),
+}
+
+/// A solved modal analysis.
+#[derive(Debug)]
+pub struct ModalSolution {
+    /// Frequencies and surface shapes.
+    pub model: ModalModel,
+    /// What the solve did.
+    pub info: ModalSolveInfo,
+    /// The assembled FE model (to export K and M); `None` when the builder was given one.
+    pub fem: Option<FemModel>,
+}
+
+impl<'a> ModalBuilder<'a> {
+    /// From any [`Geometry`], with default [`ModalParams`] (all modes up to 20 kHz).
+    pub fn new(geometry: Geometry<'a>, material: &'a Material) -> Self {
+        Self {
+            geometry,
+            material,
+            params: ModalParams::default(),
+            progress: &|_| {},
+        }
+    }
+    /// From a closed surface mesh.
+    pub fn surface(mesh: &'a SurfaceMesh, material: &'a Material) -> Self {
+        Self::new(Geometry::Surface(mesh), material)
+    }
+    /// From a tet mesh.
+    pub fn tets(mesh: &'a TetMesh, material: &'a Material) -> Self {
+        Self::new(Geometry::Tets(mesh), material)
+    }
+    /// All settings at once.
+    pub fn params(mut self, params: ModalParams) -> Self {
+        self.params = params;
+        self
+    }
+    /// The lowest `n` elastic modes (instead of a cutoff).
+    pub fn modes(mut self, n: usize) -> Self {
+        self.params.n_modes = Some(n);
+        self
+    }
+    /// Every mode up to `f` Hz.
+    pub fn max_freq_hz(mut self, f: f64) -> Self {
+        self.params.max_freq_hz = Some(f);
+        self
+    }
+    /// Voxels along the longest side (0: automatic).
+    pub fn resolution(mut self, n: usize) -> Self {
+        self.params.resolution = n;
+        self
+    }
+    /// Skip or do the Sturm count check.
+    pub fn sturm_check(mut self, on: bool) -> Self {
+        self.params.sturm_check = on;
+        self
+    }
+    /// Solver stages are reported here.
+    pub fn progress(mut self, progress: &'a (dyn Fn(Stage) + Sync)) -> Self {
+        self.progress = progress;
+        self
+    }
+    /// Discretizes (unless given an FE model), solves, and interpolates the shapes on the
+    /// surface.
+    ///
+    /// # Errors
+    /// [`ModelError`] for unusable meshes, materials, parameters or a failed solve.
+    pub fn solve(self) -> Result<ModalSolution, ModelError> {
+        let (p, m, f) = (&self.params, self.material, self.progress);
+        match self.geometry {
+            Geometry::Surface(s) => {
+                solve_surface(s, m, p, f).map(|(model, info, fem)| ModalSolution {
+                    model,
+                    info,
+                    fem: Some(fem),
+                })
+            }
+            Geometry::Tets(t) => solve_tets(t, m, p, f).map(|(model, info, fem)| ModalSolution {
+                model,
+                info,
+                fem: Some(fem),
+            }),
+            Geometry::Fem { fem, components } => {
+                check_params(p)?;
+                solve_fem(fem, m, p, components, f).map(|(model, info)| ModalSolution {
+                    model,
+                    info,
+                    fem: None,
+                })
+            }
+        }
+    }
+}
+
+fn solve_surface(
     mesh: &SurfaceMesh,
     material: &Material,
     params: &ModalParams,
@@ -129,7 +238,7 @@ pub fn compute_modal_model_keep_fem(
     };
     let (fem, report) = discretize_surface(mesh, material, &vp)?;
     let assemble_s = t0.elapsed().as_secs_f64();
-    let (model, mut info) = compute_modal_model_from_fem(&fem, material, params, 1, progress)?;
+    let (model, mut info) = solve_fem(&fem, material, params, 1, progress)?;
     if report.dropped_voxels > 0 {
         info.warnings.push(format!(
             "{} voxels not face-connected to the main body were dropped (thin parts; raise --resolution)",
@@ -142,11 +251,7 @@ pub fn compute_modal_model_keep_fem(
     Ok((model, info, fem))
 }
 
-/// Solves a tet mesh (quadratic tets), also returning the assembled FEM model.
-///
-/// # Errors
-/// As [`compute_modal_model`].
-pub fn compute_modal_model_from_tets(
+fn solve_tets(
     tets: &TetMesh,
     material: &Material,
     params: &ModalParams,
@@ -157,8 +262,7 @@ pub fn compute_modal_model_from_tets(
     let fem = discretize_tets(tets, material, params.lumped_mass)?;
     let components = tet_components(tets);
     let assemble_s = t0.elapsed().as_secs_f64();
-    let (model, mut info) =
-        compute_modal_model_from_fem(&fem, material, params, components, progress)?;
+    let (model, mut info) = solve_fem(&fem, material, params, components, progress)?;
     info.warnings.extend(fem.notes.iter().cloned());
     if components > 1 {
         info.warnings.push(format!(
@@ -223,11 +327,7 @@ fn check_params(p: &ModalParams) -> Result<(), ModelError> {
     Ok(())
 }
 
-/// Solves an assembled model with `components` free parts (6 rigid modes each).
-///
-/// # Errors
-/// [`ModelError::Eigen`] when the solve fails.
-pub fn compute_modal_model_from_fem(
+fn solve_fem(
     fem: &FemModel,
     material: &Material,
     params: &ModalParams,

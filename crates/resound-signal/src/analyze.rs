@@ -61,6 +61,10 @@ pub struct Analysis {
     pub noise_rms: f64,
     /// Samples analysed after the onset.
     pub samples: usize,
+    /// The very samples the modes were fitted to (high-passed as a whole signal, then cut at
+    /// the onset; `samples` long). Estimation, the residual and plots use these, never a
+    /// re-cut of the input.
+    pub segment: Vec<f64>,
     /// Samples in flat runs at the peak (clipping).
     pub clipped_samples: usize,
     /// Human-readable warnings (clipping, several strikes).
@@ -288,6 +292,7 @@ pub fn analyze(
         modes,
         noise_rms: info.noise_rms,
         samples: seg.len(),
+        segment: seg.to_vec(),
         clipped_samples: sc.clipped_samples,
         warnings,
         refine: info,

@@ -15,13 +15,14 @@
 #![warn(missing_docs)]
 
 pub mod analyze;
-pub mod benchmark;
 pub mod crb;
 pub mod extract;
 pub mod filter;
 pub mod onset;
+pub mod psycho;
 pub mod refine;
 pub mod resample;
+pub mod sine_stft;
 pub mod stft;
 
 /// Lowest frequency a mode may have, Hz (below the audible range).

@@ -13,7 +13,6 @@
 #![warn(missing_docs)]
 
 pub mod bank;
-pub mod benchmark;
 pub mod engine;
 pub mod excitation;
 pub mod render;

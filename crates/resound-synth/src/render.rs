@@ -40,7 +40,19 @@ pub fn render_strike(
     Ok(out)
 }
 
-/// What [`normalize`] did.
+/// −1 dBFS, the ceiling every rendered file is kept under.
+pub const CEILING: f32 = 0.891;
+
+/// What [`set_level`] does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Level {
+    /// Only turn down a peak above the ceiling (keep the physical level otherwise).
+    Guard,
+    /// Bring the peak to the ceiling, up or down (silence stays silent).
+    Normalize,
+}
+
+/// What [`set_level`] did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LevelReport {
     /// Peak before, full scale = 1.
@@ -49,27 +61,51 @@ pub struct LevelReport {
     pub gain_db: f32,
 }
 
-/// Keeps `x` from clipping: if its peak exceeds `ceiling` (full scale = 1), scales it so the
-/// peak sits at `ceiling`. Never clips silently: the caller reports the gain. NaN or infinite
-/// samples are an error.
-pub fn normalize(x: &mut [f32], ceiling: f32) -> Result<LevelReport, SynthError> {
-    if x.iter().any(|v| !v.is_finite()) {
-        return Err(SynthError::Parameter(
-            "the rendered signal is not finite (absurd parameters?)".into(),
-        ));
+/// The one output-level function: one gain for all `channels` (keeps a stereo image), never
+/// clipping silently — the caller reports the gain. NaN or infinite samples are an error.
+///
+/// # Errors
+/// [`SynthError::Parameter`] for a non-finite signal.
+pub fn set_level<C: AsMut<[f32]>>(
+    channels: &mut [C],
+    ceiling: f32,
+    mode: Level,
+) -> Result<LevelReport, SynthError> {
+    let mut peak = 0.0f32;
+    for c in channels.iter_mut() {
+        for v in c.as_mut().iter() {
+            if !v.is_finite() {
+                return Err(SynthError::Parameter(
+                    "the rendered signal is not finite (absurd parameters?)".into(),
+                ));
+            }
+            peak = peak.max(v.abs());
+        }
     }
-    let peak = x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-    if peak > ceiling {
-        let g = ceiling / peak;
-        x.iter_mut().for_each(|v| *v *= g);
-        Ok(LevelReport {
-            peak_before: peak,
-            gain_db: 20.0 * g.log10(),
-        })
-    } else {
-        Ok(LevelReport {
+    let change = match mode {
+        Level::Guard => peak > ceiling,
+        Level::Normalize => peak > 0.0,
+    };
+    if !change {
+        return Ok(LevelReport {
             peak_before: peak,
             gain_db: 0.0,
-        })
+        });
     }
+    let g = ceiling / peak;
+    for c in channels.iter_mut() {
+        c.as_mut().iter_mut().for_each(|v| *v *= g);
+    }
+    Ok(LevelReport {
+        peak_before: peak,
+        gain_db: 20.0 * g.log10(),
+    })
+}
+
+/// Keeps one signal from clipping ([`set_level`] with [`Level::Guard`]).
+///
+/// # Errors
+/// As [`set_level`].
+pub fn normalize(x: &mut [f32], ceiling: f32) -> Result<LevelReport, SynthError> {
+    set_level(&mut [x], ceiling, Level::Guard)
 }

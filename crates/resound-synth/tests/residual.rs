@@ -6,12 +6,11 @@ use rand::{Rng, SeedableRng};
 use resound_core::damped::synthesize;
 use resound_core::{DampedMode, Residual};
 use resound_estimate::image::{image_of_signal, ImageGrid};
+use resound_estimate::residual::compute_residual;
 use resound_estimate::{estimate, forward_modes, EstimateParams, ModalSide, RayleighParams};
+use resound_signal::sine_stft::{griffin_lim, spectral_error, window_len_for, Stft};
 use resound_synth::render::{bank_modes, render_strike};
-use resound_synth::residual::{
-    compute_residual, griffin_lim, spectral_error, window_len_for, GriffinLim, Pairing,
-    ResidualSource, Stft,
-};
+use resound_synth::residual::{GriffinLim, Pairing, ResidualSource};
 
 const FS: f64 = 48_000.0;
 

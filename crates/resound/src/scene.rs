@@ -12,27 +12,17 @@
 //! The modal model of a body is solved with the body's own density and E = γρ, so λ needs no
 //! rescaling and the mass-normalised shapes carry the body's real mass.
 
+use crate::error::{invalid, Error, Result};
+use crate::material::resolve_material;
 use resound_core::{Material, ModalModel, SoundMaterial};
 use resound_fem::{primitive, SurfaceMesh};
-use resound_io::library::{read_material, Library};
+use resound_io::library::Library;
+use resound_io::model_file::Fnv1a;
 use resound_io::scene::{BodyFile, SceneFile, ShapeFile};
-use resound_modal::ModalParams;
+use resound_modal::{ModalBuilder, ModalParams};
 use resound_physics::{BodySound, BodySpec, SceneParams, Shape};
 use resound_synth::excitation::Elastic;
 use std::path::{Path, PathBuf};
-
-/// Why a scene cannot be built.
-#[derive(Debug, thiserror::Error)]
-pub enum SceneBuildError {
-    /// A body's material, mesh or modal model failed.
-    #[error("body {name:?}: {message}")]
-    Body {
-        /// Body name.
-        name: String,
-        /// What went wrong.
-        message: String,
-    },
-}
 
 /// Where to look things up while building.
 pub struct BuildOptions<'a> {
@@ -44,60 +34,6 @@ pub struct BuildOptions<'a> {
     pub cache_dir: Option<PathBuf>,
     /// Progress messages.
     pub progress: &'a dyn Fn(&str),
-}
-
-/// The Rayleigh α, β of Ren's Table I material that matches an elastic preset.
-fn table_damping(preset: &str) -> Option<(f64, f64)> {
-    let ren = match preset {
-        "steel" | "aluminium" => "metal",
-        "ceramic" => "porcelain",
-        "glass" => "glass",
-        "wood" => "wood",
-        "plastic" => "plastic",
-        _ => return None,
-    };
-    SoundMaterial::ren_table_1()
-        .into_iter()
-        .find(|m| m.name == ren)
-        .map(|m| (m.alpha, m.beta))
-}
-
-/// `preset:NAME` as a sound material (see the module docs).
-pub fn preset_sound_material(name: &str) -> Option<SoundMaterial> {
-    let m = Material::preset(name).ok()?;
-    let (alpha, beta) = table_damping(name)?;
-    Some(SoundMaterial::rayleigh(
-        &format!("preset:{name}"),
-        alpha,
-        beta,
-        m.youngs_modulus / m.density,
-        1.0,
-    ))
-}
-
-/// Resolves a scene's material reference.
-pub fn resolve_material(
-    spec: &str,
-    base_dir: &Path,
-    library: Option<&Library>,
-) -> Result<SoundMaterial, String> {
-    if let Some(p) = spec.strip_prefix("preset:") {
-        return preset_sound_material(p).ok_or_else(|| {
-            format!("unknown preset {p:?} (steel, aluminium, glass, ceramic, wood, plastic)")
-        });
-    }
-    let path = base_dir.join(spec);
-    if spec.ends_with(".json") || path.is_file() {
-        return read_material(&path).map_err(|e| e.to_string());
-    }
-    if let Some(lib) = library {
-        if let Some(m) = lib.get(spec).map_err(|e| e.to_string())? {
-            return Ok(m);
-        }
-    }
-    preset_sound_material(spec).ok_or_else(|| {
-        format!("no material {spec:?} in the library, no such file, and not a preset")
-    })
 }
 
 /// Splits every triangle into four (midpoints shared), `times` times: boxes get vertices on
@@ -129,7 +65,7 @@ fn subdivide(mut m: SurfaceMesh, times: usize) -> SurfaceMesh {
 }
 
 /// The surface mesh and collider shape of a body, in the body frame.
-fn geometry(b: &BodyFile, base_dir: &Path) -> Result<(SurfaceMesh, Shape), String> {
+fn geometry(b: &BodyFile, base_dir: &Path) -> Result<(SurfaceMesh, Shape)> {
     Ok(match &b.shape {
         ShapeFile::Box(s) | ShapeFile::Plate(s) => (
             subdivide(primitive::bar(*s), 2),
@@ -151,10 +87,12 @@ fn geometry(b: &BodyFile, base_dir: &Path) -> Result<(SurfaceMesh, Shape), Strin
         }
         ShapeFile::Mesh(p) => {
             let path = base_dir.join(p);
-            let mesh = match resound_io::load_mesh(&path, b.scale).map_err(|e| e.to_string())? {
+            let mesh = match resound_io::load_mesh(&path, b.scale)? {
                 resound_io::LoadedMesh::Surface(s) => s,
                 resound_io::LoadedMesh::Tets(_) => {
-                    return Err("tet meshes are not supported in scenes; give a surface".into())
+                    return Err(invalid(
+                        "tet meshes are not supported in scenes; give a surface",
+                    ))
                 }
             };
             let shape = if b.fixed {
@@ -170,30 +108,21 @@ fn geometry(b: &BodyFile, base_dir: &Path) -> Result<(SurfaceMesh, Shape), Strin
     })
 }
 
-/// 64-bit FNV-1a: a content hash that is the same on every build (the cache key).
-fn fnv1a(bytes: &[u8], mut h: u64) -> u64 {
-    for &b in bytes {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x100_0000_01b3);
-    }
-    h
-}
-
 fn modal_model(
     mesh: &SurfaceMesh,
     material: &Material,
     b: &BodyFile,
     cache_dir: Option<&Path>,
-) -> Result<ModalModel, String> {
-    let mut h = 0xcbf2_9ce4_8422_2325u64;
+) -> Result<ModalModel> {
+    let mut hash = Fnv1a::new();
     for v in &mesh.vertices {
         for c in v {
-            h = fnv1a(&c.to_le_bytes(), h);
+            hash.write(&c.to_le_bytes());
         }
     }
     for t in &mesh.triangles {
         for c in t {
-            h = fnv1a(&c.to_le_bytes(), h);
+            hash.write(&c.to_le_bytes());
         }
     }
     for x in [
@@ -201,10 +130,11 @@ fn modal_model(
         material.poisson_ratio,
         material.density,
     ] {
-        h = fnv1a(&x.to_le_bytes(), h);
+        hash.write(&x.to_le_bytes());
     }
-    h = fnv1a(&(b.modes as u64).to_le_bytes(), h);
-    h = fnv1a(&(b.resolution as u64).to_le_bytes(), h);
+    hash.write(&(b.modes as u64).to_le_bytes());
+    hash.write(&(b.resolution as u64).to_le_bytes());
+    let h = hash.finish();
     let file = cache_dir.map(|d| d.join(format!("{h:016x}.rmodal")));
     if let Some(f) = &file {
         if let Ok(m) = resound_io::model_file::load(f) {
@@ -219,8 +149,10 @@ fn modal_model(
         sturm_check: false,
         ..Default::default()
     };
-    let (model, _) = resound_modal::compute_modal_model(mesh, material, &params, &|_| {})
-        .map_err(|e| format!("modal analysis: {e}"))?;
+    let model = ModalBuilder::surface(mesh, material)
+        .params(params)
+        .solve()?
+        .model;
     if let Some(f) = &file {
         // A cache that cannot be written only costs time later.
         if let Some(d) = f.parent() {
@@ -238,27 +170,21 @@ pub fn body_sound(
     poisson: f64,
     sample_rate_hz: f64,
 ) -> BodySound {
-    let damping = material.damping();
     let m = model.n_modes();
     let vertex_gains = model.vertex_gains();
-    let mut modes = Vec::new();
-    let mut keep = Vec::new();
-    for (j, &lambda) in model.eigenvalues.iter().enumerate() {
-        let d = material
-            .mode_damping
-            .iter()
-            .find(|o| o.mode == j)
-            .map_or_else(|| damping.damping_per_s(lambda), |o| o.damping_per_s);
-        let w2 = lambda - d * d;
-        if !(w2 > 0.0) {
-            continue;
-        }
-        let f = w2.sqrt() / std::f64::consts::TAU;
-        if f < 0.5 * sample_rate_hz {
-            modes.push((f, d));
-            keep.push(j);
-        }
-    }
+    // The forward model at unit gain: frequencies and decays, and which modes are kept.
+    let gamma0 = model.material.youngs_modulus / model.material.density;
+    let kept = material.modes_indexed(
+        &model.eigenvalues,
+        &vec![1.0; m],
+        gamma0,
+        0.5 * sample_rate_hz,
+    );
+    let modes: Vec<(f64, f64)> = kept
+        .iter()
+        .map(|(_, d)| (d.freq_hz, d.damping_per_s))
+        .collect();
+    let keep: Vec<usize> = kept.iter().map(|&(j, _)| j).collect();
     let scale = material.sigma / resound_synth::render::REFERENCE_IMPULSE_N_S;
     let nv = model.n_vertices();
     let mut gains = Vec::with_capacity(nv * keep.len());
@@ -287,13 +213,10 @@ fn stats_sound(
     material: &SoundMaterial,
     seed: u64,
     sample_rate_hz: f64,
-) -> Result<BodySound, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let stats: resound_stats::ModeStatistics = serde_json::from_str(&text)
-        .map_err(|e| format!("{}: not a statistics file: {e}", path.display()))?;
+) -> Result<BodySound> {
+    let stats = crate::files::load_stats(path)?;
     let ir: Vec<_> = stats
-        .sample(seed)
-        .map_err(|e| e.to_string())?
+        .sample(seed)?
         .into_iter()
         .filter(|m| m.freq_hz < 0.5 * sample_rate_hz)
         .collect();
@@ -324,7 +247,7 @@ fn surface_of(
     b: &BodyFile,
     base_dir: &Path,
     seed: u64,
-) -> Result<Option<std::sync::Arc<resound_synth::scrape::Surface>>, String> {
+) -> Result<Option<std::sync::Arc<resound_synth::scrape::Surface>>> {
     use resound_synth::scrape::Surface;
     let Some(spec) = &b.surface else {
         return Ok(None);
@@ -333,19 +256,22 @@ fn surface_of(
         Surface::fractal(1 << 18, b.surface_spacing, 2.0, b.roughness, seed)
     } else {
         let path = base_dir.join(spec);
-        let h = resound_io::npy::read_npy_f64(&path).map_err(|e| e.to_string())?;
+        let h = resound_io::npy::read_npy_f64(&path)?;
         let patch = (h.len() / 8).clamp(16, 8192);
         Surface::quilt(&h, b.surface_spacing, h.len().max(1 << 18), patch, seed)
     }
-    .map_err(|e| format!("surface {spec:?}: {e}"))?;
+    .map_err(|e| invalid(format!("surface {spec:?}: {e}")))?;
     Ok(Some(std::sync::Arc::new(s)))
 }
 
 /// Builds the bodies and settings of `scene`.
+///
+/// # Errors
+/// A body whose material, geometry, sound or surface fails (the error names the body).
 pub fn build_scene(
     scene: &SceneFile,
     opts: &BuildOptions<'_>,
-) -> Result<(Vec<BodySpec>, SceneParams), SceneBuildError> {
+) -> Result<(Vec<BodySpec>, SceneParams)> {
     let fs = f64::from(scene.sample_rate);
     let mut bodies = Vec::with_capacity(scene.body.len());
     let mut loaded: std::collections::HashMap<
@@ -354,13 +280,9 @@ pub fn build_scene(
     > = std::collections::HashMap::new();
     for (i, spanned) in scene.body.iter().enumerate() {
         let b = spanned.get_ref();
-        let fail = |message: String| SceneBuildError::Body {
-            name: b.name.clone(),
-            message,
-        };
+        let fail = |e: Error| e.context(format!("body {:?}", b.name));
         (opts.progress)(&format!("body {}/{}: {}", i + 1, scene.body.len(), b.name));
         let material = resolve_material(&b.material, opts.base_dir, opts.library).map_err(fail)?;
-        material.validate().map_err(fail)?;
         let (mesh, shape) = geometry(b, opts.base_dir).map_err(fail)?;
         let grains = match b.grains_file() {
             Some((file, gain)) => {
@@ -369,8 +291,7 @@ pub fn build_scene(
                     Some(d) => std::sync::Arc::clone(d),
                     None => {
                         let d = std::sync::Arc::new(
-                            resound_io::grains_file::load(&path)
-                                .map_err(|e| fail(e.to_string()))?,
+                            resound_io::grains_file::load(&path).map_err(|e| fail(e.into()))?,
                         );
                         loaded.insert(path, std::sync::Arc::clone(&d));
                         d
@@ -440,4 +361,155 @@ pub fn build_scene(
         gravity: scene.gravity,
     };
     Ok((bodies, params))
+}
+
+/// How to render a scene file.
+#[derive(Clone, Debug, Default)]
+pub struct SceneRenderParams {
+    /// The material library (`None`: the default one).
+    pub library: Option<PathBuf>,
+    /// Directory of cached modal models (`None`: no cache).
+    pub cache_dir: Option<PathBuf>,
+    /// Keep the σ-calibrated level instead of normalizing the peak to −1 dBFS (a mix that would
+    /// clip is still turned down).
+    pub keep_level: bool,
+}
+
+/// Figures of a rendered scene.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct SceneSummary {
+    /// Bodies.
+    pub bodies: usize,
+    /// Length, s.
+    pub duration_s: f64,
+    /// Building the bodies (modal models included), s.
+    pub build_s: f64,
+    /// Simulating and rendering, s.
+    pub simulate_s: f64,
+    /// Of which physics and contacts, s.
+    pub physics_s: f64,
+    /// Of which sound, s.
+    pub audio_s: f64,
+    /// Seconds of audio per second of simulation.
+    pub realtime_factor: f64,
+    /// Impacts.
+    pub impacts: usize,
+    /// Body-steps of sliding.
+    pub sliding_steps: usize,
+    /// Body-steps of rolling.
+    pub rolling_steps: usize,
+    /// Most sources sounding at once.
+    pub max_voices: usize,
+    /// Peak before the level change, full scale = 1.
+    pub peak: f32,
+    /// Level change applied, dB.
+    pub gain_db: f32,
+    /// Event-log lines.
+    pub events: usize,
+    /// This process's peak resident memory, MB (0 where unknown).
+    pub peak_rss_mb: f64,
+    /// Things the user should know (silence, turned down to avoid clipping).
+    pub notes: Vec<String>,
+}
+
+/// A rendered scene.
+#[derive(Clone, Debug)]
+pub struct SceneRender {
+    /// One or two channels at `sample_rate_hz`, levelled.
+    pub channels: Vec<Vec<f32>>,
+    /// Sample rate, Hz.
+    pub sample_rate_hz: u32,
+    /// The event log.
+    pub events: Vec<resound_physics::Event>,
+    /// Figures.
+    pub summary: SceneSummary,
+}
+
+/// This process's peak resident memory (VmHWM), MB; 0 where /proc is unavailable.
+pub fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+        })
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+/// Reads, builds and renders the scene file `path`: `stage` gets build messages, `simulated`
+/// the simulated fraction.
+///
+/// # Errors
+/// Unreadable or invalid scene files (with line and field), bodies that cannot be built, a
+/// failed simulation, a non-finite mix.
+pub fn render_scene(
+    path: &Path,
+    params: &SceneRenderParams,
+    stage: &dyn Fn(&str),
+    simulated: &dyn Fn(f64),
+) -> Result<SceneRender> {
+    let t0 = std::time::Instant::now();
+    let scene = resound_io::scene::read_scene(path)?;
+    let library = crate::material::open_library(params.library.as_deref())?;
+    let base_dir = path
+        .parent()
+        .map_or_else(|| PathBuf::from("."), PathBuf::from);
+    let (bodies, sp) = build_scene(
+        &scene,
+        &BuildOptions {
+            base_dir: &base_dir,
+            library: Some(&library),
+            cache_dir: params.cache_dir.clone(),
+            progress: stage,
+        },
+    )
+    .map_err(|e| e.context(format!("building {}", path.display())))?;
+    let build_s = t0.elapsed().as_secs_f64();
+    let t1 = std::time::Instant::now();
+    let mut out = resound_physics::simulate(&bodies, &sp, simulated)
+        .map_err(|e| Error::from(e).context(format!("simulating {}", path.display())))?;
+    let simulate_s = t1.elapsed().as_secs_f64();
+    let mode = if params.keep_level {
+        resound_synth::render::Level::Guard
+    } else {
+        resound_synth::render::Level::Normalize
+    };
+    let level =
+        resound_synth::render::set_level(&mut out.channels, resound_synth::render::CEILING, mode)?;
+    let mut notes = Vec::new();
+    if level.peak_before == 0.0 {
+        notes.push("the scene is silent (no sounding contacts)".to_string());
+    } else if params.keep_level && level.gain_db < 0.0 {
+        notes.push(format!(
+            "peak {:.2} of full scale; turned down by {:.1} dB (no clipping)",
+            level.peak_before, -level.gain_db
+        ));
+    }
+    let s = &out.stats;
+    let summary = SceneSummary {
+        bodies: bodies.len(),
+        duration_s: sp.duration_s,
+        build_s,
+        simulate_s,
+        physics_s: s.physics_s,
+        audio_s: s.audio_s,
+        realtime_factor: sp.duration_s / simulate_s.max(1e-9),
+        impacts: s.impacts,
+        sliding_steps: s.sliding_steps,
+        rolling_steps: s.rolling_steps,
+        max_voices: s.max_voices,
+        peak: level.peak_before,
+        gain_db: level.gain_db,
+        events: out.events.len(),
+        peak_rss_mb: peak_rss_mb(),
+        notes,
+    };
+    Ok(SceneRender {
+        channels: out.channels,
+        sample_rate_hz: sp.sample_rate_hz as u32,
+        events: out.events,
+        summary,
+    })
 }

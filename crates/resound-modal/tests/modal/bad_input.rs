@@ -3,7 +3,7 @@
 use resound_core::Material;
 use resound_fem::discretize::box_tets;
 use resound_fem::{primitive, SurfaceMesh};
-use resound_modal::{compute_modal_model, compute_modal_model_from_tets, ModalParams};
+use resound_modal::{ModalBuilder, ModalParams};
 
 fn run(mesh: &SurfaceMesh) -> String {
     let p = ModalParams {
@@ -11,7 +11,10 @@ fn run(mesh: &SurfaceMesh) -> String {
         resolution: 10,
         ..Default::default()
     };
-    compute_modal_model(mesh, &Material::preset("steel").unwrap(), &p, &|_| {})
+    ModalBuilder::surface(mesh, &Material::preset("steel").unwrap())
+        .params(p.clone())
+        .solve()
+        .map(|s| (s.model, s.info))
         .map(|_| "ok".to_string())
         .unwrap_or_else(|e| e.to_string())
 }
@@ -47,12 +50,13 @@ fn bad_meshes_and_materials() {
         resolution: 4,
         ..Default::default()
     };
-    let e = compute_modal_model(
+    let e = ModalBuilder::surface(
         &primitive::bowl(0.1, 0.001, 0.1, 48),
         &Material::preset("steel").unwrap(),
-        &p,
-        &|_| {},
     )
+    .params(p.clone())
+    .solve()
+    .map(|s| (s.model, s.info))
     .unwrap_err()
     .to_string();
     assert!(e.contains("no inside voxel"), "{e}");
@@ -70,29 +74,37 @@ fn bad_meshes_and_materials() {
         resolution: 10,
         ..Default::default()
     };
-    assert!(compute_modal_model(&primitive::bar([0.1, 0.1, 0.1]), &bad, &p, &|_| {}).is_err());
+    assert!(
+        ModalBuilder::surface(&primitive::bar([0.1, 0.1, 0.1]), &bad)
+            .params(p.clone())
+            .solve()
+            .map(|s| (s.model, s.info))
+            .is_err()
+    );
     // Absurd parameters.
     let p = ModalParams {
         n_modes: Some(0),
         ..Default::default()
     };
-    assert!(compute_modal_model(
+    assert!(ModalBuilder::surface(
         &primitive::bar([0.1, 0.1, 0.1]),
-        &Material::preset("steel").unwrap(),
-        &p,
-        &|_| {}
+        &Material::preset("steel").unwrap()
     )
+    .params(p.clone())
+    .solve()
+    .map(|s| (s.model, s.info))
     .is_err());
     let p = ModalParams {
         n_modes: Some(1_000_000),
         ..Default::default()
     };
-    let e = compute_modal_model(
+    let e = ModalBuilder::surface(
         &primitive::bar([0.1, 0.1, 0.1]),
         &Material::preset("steel").unwrap(),
-        &p,
-        &|_| {},
     )
+    .params(p.clone())
+    .solve()
+    .map(|s| (s.model, s.info))
     .unwrap_err()
     .to_string();
     assert!(e.contains("more than the supported"), "{e}");
@@ -100,12 +112,13 @@ fn bad_meshes_and_materials() {
         max_freq_hz: Some(-1.0),
         ..Default::default()
     };
-    assert!(compute_modal_model(
+    assert!(ModalBuilder::surface(
         &primitive::bar([0.1, 0.1, 0.1]),
-        &Material::preset("steel").unwrap(),
-        &p,
-        &|_| {}
+        &Material::preset("steel").unwrap()
     )
+    .params(p.clone())
+    .solve()
+    .map(|s| (s.model, s.info))
     .is_err());
 }
 
@@ -117,7 +130,10 @@ fn inverted_tets_are_reported() {
         n_modes: Some(3),
         ..Default::default()
     };
-    let e = compute_modal_model_from_tets(&t, &Material::preset("steel").unwrap(), &p, &|_| {})
+    let e = ModalBuilder::tets(&t, &Material::preset("steel").unwrap())
+        .params(p.clone())
+        .solve()
+        .map(|s| (s.model, s.info, s.fem))
         .unwrap_err()
         .to_string();
     assert!(e.contains("tetrahedron 5 is inverted"), "{e}");

@@ -8,9 +8,7 @@ use resound_fem::discretize::{box_tets, discretize_surface, VoxelParams};
 use resound_fem::primitive;
 use resound_modal::dense::dense_eigenvalues;
 use resound_modal::eigen::sym_matvec;
-use resound_modal::{
-    compute_modal_model, compute_modal_model_from_tets, solve_generalized, EigenParams, ModalParams,
-};
+use resound_modal::{solve_generalized, EigenParams, ModalBuilder, ModalParams};
 use std::collections::HashMap;
 
 const SIZE: [f64; 3] = [0.3, 0.02, 0.01];
@@ -110,7 +108,11 @@ fn issue_2_bar_matches_timoshenko_with_default_settings() {
         max_freq_hz: Some(9000.0),
         ..Default::default()
     };
-    let (model, info) = compute_modal_model(&bar, &mat, &params, &|_| {}).unwrap();
+    let (model, info) = ModalBuilder::surface(&bar, &mat)
+        .params(params.clone())
+        .solve()
+        .map(|s| (s.model, s.info))
+        .unwrap();
     assert!(info.eigen.max_rel_residual < 1e-3);
     assert_eq!(info.rigid_modes, 6);
     // Six near-zero rigid modes.
@@ -187,9 +189,17 @@ fn frequencies_scale_with_sqrt_e_over_rho_and_inverse_length() {
         resolution: 30,
         ..Default::default()
     };
-    let (a, _) = compute_modal_model(&primitive::bar(SIZE), &steel(), &p, &|_| {}).unwrap();
+    let (a, _) = ModalBuilder::surface(&primitive::bar(SIZE), &steel())
+        .params(p.clone())
+        .solve()
+        .map(|s| (s.model, s.info))
+        .unwrap();
     let other = Material::new("x", 50e9, 0.3, 2000.0).unwrap();
-    let (b, _) = compute_modal_model(&primitive::bar(SIZE), &other, &p, &|_| {}).unwrap();
+    let (b, _) = ModalBuilder::surface(&primitive::bar(SIZE), &other)
+        .params(p.clone())
+        .solve()
+        .map(|s| (s.model, s.info))
+        .unwrap();
     let ratio = ((50e9f64 / 2000.0) / (200e9 / 7850.0)).sqrt();
     for j in 0..8 {
         assert!(
@@ -203,13 +213,11 @@ fn frequencies_scale_with_sqrt_e_over_rho_and_inverse_length() {
         assert!((r.freq_hz(j) / b.freq_hz(j) - 1.0).abs() < 1e-7);
     }
     // Uniform scaling by 2: every frequency halves.
-    let (c, _) = compute_modal_model(
-        &primitive::bar(SIZE.map(|x| 2.0 * x)),
-        &steel(),
-        &p,
-        &|_| {},
-    )
-    .unwrap();
+    let (c, _) = ModalBuilder::surface(&primitive::bar(SIZE.map(|x| 2.0 * x)), &steel())
+        .params(p.clone())
+        .solve()
+        .map(|s| (s.model, s.info))
+        .unwrap();
     for j in 0..8 {
         assert!(
             (c.freq_hz(j) * 2.0 / a.freq_hz(j) - 1.0).abs() < 1e-7,
@@ -298,7 +306,11 @@ fn quadratic_tet_mesh_is_used_as_is_and_does_not_lock() {
         n_modes: Some(3),
         ..Default::default()
     };
-    let (m, info, _) = compute_modal_model_from_tets(&tets, &steel(), &p, &|_| {}).unwrap();
+    let (m, info, _) = ModalBuilder::tets(&tets, &steel())
+        .params(p.clone())
+        .solve()
+        .map(|s| (s.model, s.info, s.fem))
+        .unwrap();
     assert_eq!(info.element, "tet10");
     let thin = Beam {
         length: SIZE[0],
@@ -324,7 +336,11 @@ fn hit_gain_matches_beam_theory_at_the_free_end() {
         resolution: 60,
         ..Default::default()
     };
-    let (m, _) = compute_modal_model(&primitive::bar(SIZE), &steel(), &p, &|_| {}).unwrap();
+    let (m, _) = ModalBuilder::surface(&primitive::bar(SIZE), &steel())
+        .params(p.clone())
+        .solve()
+        .map(|s| (s.model, s.info))
+        .unwrap();
     let total_mass = 7850.0 * SIZE.iter().product::<f64>();
     // End of the top face: the first (thin-direction) bending mode has |φ| = 2/√m there for a
     // mass-normalised free–free beam, so |gain| = 2/(√m ω).

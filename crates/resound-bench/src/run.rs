@@ -1,11 +1,12 @@
-//! `resound bench …`: benchmark figures, each case in a fresh child process so peak memory
-//! (VmHWM) belongs to that case alone.
+//! `resound bench …`: the benchmark runners and their tables. Modal cases run in a fresh child
+//! process (`resound bench-case`) so peak memory (VmHWM) belongs to that case alone; scene cases
+//! run `resound scene` likewise. Call these from the `resound` binary (they re-run it).
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use resound::core::Material;
 use resound::fem::{discretize, primitive, SurfaceMesh};
-use resound::modal::{compute_modal_model_from_fem, EigenMethod, ModalParams};
+use resound::modal::{EigenMethod, Geometry, ModalBuilder, ModalParams};
 use serde_json::{json, Value};
 use std::process::Command;
 
@@ -70,8 +71,8 @@ pub struct SceneBenchArgs {
     #[arg(long)]
     pub json: bool,
     /// Body counts.
-    #[arg(long, default_value = "10,100")]
-    pub bodies: String,
+    #[arg(long, default_value = "10,100", value_delimiter = ',')]
+    pub bodies: Vec<usize>,
     /// Seconds of audio.
     #[arg(long, default_value_t = 10.0)]
     pub seconds: f64,
@@ -138,8 +139,8 @@ pub struct ModalBenchArgs {
     #[arg(long)]
     pub json: bool,
     /// Target DOF counts.
-    #[arg(long, default_value = "10000,30000,100000")]
-    pub dofs: String,
+    #[arg(long, default_value = "10000,30000,100000", value_delimiter = ',')]
+    pub dofs: Vec<usize>,
     /// Elastic modes per solve.
     #[arg(long, default_value_t = 200)]
     pub modes: usize,
@@ -233,7 +234,16 @@ pub fn run_case(a: CaseArgs) -> Result<()> {
         resolution,
         ..Default::default()
     };
-    let (model, info) = compute_modal_model_from_fem(&fem, &material, &p, 1, &|_| {})?;
+    let solved = ModalBuilder::new(
+        Geometry::Fem {
+            fem: &fem,
+            components: 1,
+        },
+        &material,
+    )
+    .params(p)
+    .solve()?;
+    let (model, info) = (solved.model, solved.info);
     let total_s = t0.elapsed().as_secs_f64();
     let v = json!({
         "mesh": a.mesh,
@@ -307,10 +317,10 @@ pub fn run(c: BenchCmd) -> Result<()> {
         BenchCmd::Grains(a) => return run_grains(a),
     };
     let exe = std::env::current_exe().context("locating the resound binary")?;
-    let dofs: Vec<usize> = crate::util::parse_list(&a.dofs)?
-        .iter()
-        .map(|&d| d as usize)
-        .collect();
+    if a.dofs.contains(&0) {
+        bail!("--dofs: every count must be positive");
+    }
+    let dofs = a.dofs.clone();
     let mut rows: Vec<Value> = Vec::new();
     for mesh in a.meshes.split(',').map(str::trim) {
         for &d in &dofs {
@@ -379,7 +389,7 @@ pub fn run(c: BenchCmd) -> Result<()> {
 }
 
 fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
-    use resound::signal::benchmark::{mixtures, single_sinusoids};
+    use crate::analysis::{mixtures, single_sinusoids};
     use resound::signal::AnalyzeParams;
     let snrs = a
         .snr_db
@@ -472,7 +482,7 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
 }
 
 fn run_estimate(a: EstimateBenchArgs) -> Result<()> {
-    use resound::estimate::benchmark::{recovery_case, recovery_case_between, table_cases};
+    use crate::recovery::{recovery_case, recovery_case_between, table_cases};
     use resound::estimate::{ImageRoute, ModalSide};
     let (mesh, ceramic) = bench_mesh("spot")?;
     let side_at = |voxels: usize| -> Result<ModalSide> {
@@ -482,7 +492,10 @@ fn run_estimate(a: EstimateBenchArgs) -> Result<()> {
             target_voxels: voxels,
             ..Default::default()
         };
-        let (model, _) = resound::modal::compute_modal_model(&mesh, &ceramic, &p, &|_| {})?;
+        let model = ModalBuilder::surface(&mesh, &ceramic)
+            .params(p)
+            .solve()?
+            .model;
         let sp = model.locate_hit([-0.0706, 0.1061, -0.0301], 0.02)?;
         Ok(ModalSide {
             eigenvalues0: model.eigenvalues.clone(),
@@ -556,7 +569,7 @@ fn run_estimate(a: EstimateBenchArgs) -> Result<()> {
 }
 
 fn run_synth(a: SynthBenchArgs) -> Result<()> {
-    use resound::synth::benchmark::{
+    use crate::throughput::{
         bank_mode_samples_per_s, residual_transfer_latencies_ms, scalar_loop_mode_samples_per_s,
     };
     if a.modes == 0 || !(a.seconds > 0.0) || a.events == 0 {
@@ -664,10 +677,7 @@ fn run_scene(a: SceneBenchArgs) -> Result<()> {
         None => tmp.path().to_path_buf(),
     };
     let dir = &base;
-    let counts: Vec<usize> = crate::util::parse_list(&a.bodies)?
-        .iter()
-        .map(|&v| v as usize)
-        .collect();
+    let counts = a.bodies.clone();
     if counts.is_empty() || counts.iter().any(|&c| c == 0 || c > 2000) || !(a.seconds > 0.0) {
         bail!("--bodies must list counts in 1..=2000 and --seconds must be > 0");
     }
@@ -725,7 +735,7 @@ fn run_scene(a: SceneBenchArgs) -> Result<()> {
 }
 
 /// The PyImpact metal_3 table (BSD-2-Clause; see tests/fixtures/pyimpact/README.md).
-const METAL_3: &str = include_str!("../tests/fixtures/pyimpact/metal_3_mm.json");
+const METAL_3: &str = include_str!("../../resound-cli/tests/fixtures/pyimpact/metal_3_mm.json");
 
 fn run_stats(a: StatsBenchArgs) -> Result<()> {
     use resound::synth::excitation::{ContactModel, Elastic, Impact};
@@ -823,8 +833,11 @@ fn run_grains(a: GrainsBenchArgs) -> Result<()> {
         f.sort();
         files.extend(f);
     }
-    let (recs, fs, file_bytes) =
-        crate::grains_cmd::load_recordings(&files, crate::grains_cmd::KindArg::Auto, Some(44_100))?;
+    let (recs, fs, file_bytes) = resound::grain_files::load_recordings(
+        &files,
+        resound::grain_files::KindRule::Auto,
+        Some(44_100),
+    )?;
     let audio_s: f64 = recs.iter().map(|r| r.samples.len() as f64 / fs).sum();
     let t0 = std::time::Instant::now();
     let (dict, info) = resound::grains::analyze(
@@ -837,12 +850,13 @@ fn run_grains(a: GrainsBenchArgs) -> Result<()> {
     // Quality after the 16-bit round trip of the file.
     let bytes = resound::io::grains_file::encode(&dict);
     let saved = resound::io::grains_file::decode(&bytes, std::path::Path::new("bench.grains"))?;
-    let summary = crate::grains_cmd::summary(&saved, Some(&recs))?;
+    let summary = serde_json::to_value(resound::grain_files::summary(&saved, Some(&recs))?)?;
     // The pruned dictionary (grains that others stand in for at correlation 0.8 dropped).
     let pruned = resound::grains::prune::prune(&dict, 0.8);
     let pruned_bytes = resound::io::grains_file::encode(&pruned);
     let pruned = resound::io::grains_file::decode(&pruned_bytes, std::path::Path::new("p.grains"))?;
-    let pruned_summary = crate::grains_cmd::summary(&pruned, Some(&recs))?;
+    let pruned_summary =
+        serde_json::to_value(resound::grain_files::summary(&pruned, Some(&recs))?)?;
     let pruned_sc: Vec<f64> = pruned_summary["recordings"]
         .as_array()
         .into_iter()

@@ -2,12 +2,12 @@
 //! synthesize an object's sound with known {α, β, γ, σ}, optionally add white noise, analyse it
 //! like a recording, estimate, and compare.
 
-use crate::estimate::{estimate, EstimateParams, ImageRoute, ModalSide};
-use crate::forward::{forward_modes, RayleighParams};
 use rand::rngs::SmallRng;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use resound_core::damped::synthesize;
+use resound_estimate::estimate::{estimate, EstimateParams, ImageRoute, ModalSide};
+use resound_estimate::forward::{forward_modes, RayleighParams};
 use resound_signal::{analyze, AnalyzeParams};
 use serde::Serialize;
 

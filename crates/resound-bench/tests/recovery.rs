@@ -1,10 +1,10 @@
 //! Ren 2013 Fig. 9 protocol on the bundled Spot mesh: known parameters in, the same out.
 #![allow(clippy::unwrap_used)]
 
+use resound_bench::recovery::{recovery_case, recovery_case_between, table_cases};
 use resound_core::Material;
-use resound_estimate::benchmark::{recovery_case, recovery_case_between, table_cases};
 use resound_estimate::{ImageRoute, ModalSide};
-use resound_modal::{compute_modal_model, ModalParams};
+use resound_modal::{ModalBuilder, ModalParams};
 
 fn spot_side() -> ModalSide {
     spot_side_at(2500)
@@ -24,7 +24,11 @@ fn spot_side_at(voxels: usize) -> ModalSide {
         target_voxels: voxels,
         ..Default::default()
     };
-    let (model, _) = compute_modal_model(&mesh, &ceramic, &p, &|_| {}).unwrap();
+    let (model, _) = ModalBuilder::surface(&mesh, &ceramic)
+        .params(p.clone())
+        .solve()
+        .map(|s| (s.model, s.info))
+        .unwrap();
     let sp = model.locate_hit([-0.0706, 0.1061, -0.0301], 0.02).unwrap();
     ModalSide {
         eigenvalues0: model.eigenvalues.clone(),

@@ -96,6 +96,24 @@ pub fn bark(freq_hz: f64) -> f64 {
     13.0 * (7.6e-4 * freq_hz).atan() + 3.5 * (freq_hz / 7500.0).powi(2).atan()
 }
 
+/// Loudness in sone of a sine of amplitude `amplitude` (full scale = 1) at `freq_hz`.
+pub fn sine_sone(freq_hz: f64, amplitude: f64) -> f64 {
+    if !(amplitude > 0.0) {
+        return 0.0;
+    }
+    let spl = FULL_SCALE_DB_SPL + 20.0 * amplitude.log10();
+    sone_for_phon(phon_for_spl(freq_hz, spl))
+}
+
+/// A mode's perceptual weight, sone · s: its initial loudness times its e-folding duration
+/// `1/d`, the duration capped at `max_duration_s` (itself kept within 1 ms – 1 s) — what a
+/// listener integrates. The estimator ranks and weights features by it, and the residual
+/// transfer pairs the dominant modes by it.
+pub fn perceptual_weight(mode: &resound_core::DampedMode, max_duration_s: f64) -> f64 {
+    let duration = (1.0 / mode.damping_per_s.max(1e-6)).min(max_duration_s.clamp(1e-3, 1.0));
+    sine_sone(mode.freq_hz, mode.amplitude) * duration
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,6 +1,6 @@
 //! Throughput measurements shared by `resound bench synth`.
 
-use crate::bank::{BankMode, ModalBank};
+use resound_synth::bank::{BankMode, ModalBank};
 use std::time::Instant;
 
 /// `count` modes spread over 40 Hz – 20 kHz with light damping (nothing is culled).
@@ -131,8 +131,8 @@ pub fn test_residual(seed: u64) -> resound_core::Residual {
 /// differ from event to event (each mode's frequency and damping scaled by a random factor of
 /// 0.8–1.25), 10 fast Griffin–Lim iterations, dominant pairing. Sorted ascending.
 pub fn residual_transfer_latencies_ms(events: usize, seed: u64) -> Vec<f64> {
-    use crate::residual::{GriffinLim, Pairing, ResidualSource};
     use rand::{Rng, SeedableRng};
+    use resound_synth::residual::{GriffinLim, Pairing, ResidualSource};
     let r = test_residual(seed);
     let mut src = ResidualSource::new(&r);
     let mut rng = rand::rngs::SmallRng::seed_from_u64(seed + 1);

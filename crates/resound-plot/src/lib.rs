@@ -1,13 +1,40 @@
-//! PNG pictures of analyses (plotters, bitmap backend, bundled DejaVu Sans).
+//! PNG pictures of analyses (plotters, bitmap backend, bundled DejaVu Sans): a recording's
+//! spectrogram with its modes and (f, d) plane, an estimate's features against the Rayleigh
+//! curve with the two loudness images the metric compares, and any signal's spectrogram.
+//!
+//! An edge crate like `resound-io`: it writes files (atomically). It sits above the numeric
+//! crates and below the facade, so the CLI, the demo and other front ends draw the same pictures.
+#![warn(missing_docs)]
 
-use anyhow::{anyhow, Result};
 use plotters::prelude::*;
-use resound::core::DampedMode;
-use resound::estimate::image::{LoudnessImage, BANDS};
-use resound::io::atomic::write_atomic;
-use resound::signal::stft::Spectrogram;
-use resound::signal::Analysis;
+use resound_core::DampedMode;
+use resound_estimate::image::{LoudnessImage, BANDS};
+use resound_io::atomic::write_atomic;
+use resound_signal::stft::Spectrogram;
+use resound_signal::Analysis;
 use std::path::Path;
+
+/// Why a picture could not be drawn or written.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PlotError {
+    /// Drawing failed.
+    #[error("plot: {0}")]
+    Draw(String),
+    /// Writing failed.
+    #[error(transparent)]
+    Io(#[from] resound_io::IoError),
+    /// The temporary PNG encoding file failed.
+    #[error("plot: {0}")]
+    Temp(#[from] std::io::Error),
+}
+
+/// `Result` with [`PlotError`].
+pub type Result<T> = std::result::Result<T, PlotError>;
+
+fn draw_err(e: impl std::fmt::Display) -> PlotError {
+    PlotError::Draw(e.to_string())
+}
 
 static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 
@@ -40,19 +67,23 @@ fn colour(v: f64) -> RGBColor {
     )
 }
 
-/// Spectrogram of `seg` (onset-aligned) with the modes marked, and the (f, d) feature plane
-/// (Ren 2013 Fig. 3 and 6), written atomically to `path`.
-pub fn analysis_png(path: &Path, seg: &[f64], res: &Analysis, title: &str) -> Result<()> {
+/// Spectrogram of the analysed segment (onset-aligned) with the modes marked, and the (f, d)
+/// feature plane (Ren 2013 Fig. 3 and 6), written atomically to `path`.
+///
+/// # Errors
+/// [`PlotError`] when drawing or writing fails.
+pub fn analysis_png(path: &Path, res: &Analysis, title: &str) -> Result<()> {
+    let seg = &res.segment;
     register_font();
     let (w, h) = (1400u32, 620u32);
     let mut pixels = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
+        root.fill(&WHITE).map_err(draw_err)?;
         let (left, right) = root.split_horizontally(820);
-        draw_spectrogram(&left, seg, res, title).map_err(|e| anyhow!("plot: {e}"))?;
-        draw_features(&right, res).map_err(|e| anyhow!("plot: {e}"))?;
-        root.present().map_err(|e| anyhow!("plot: {e}"))?;
+        draw_spectrogram(&left, seg, res, title).map_err(draw_err)?;
+        draw_features(&right, res).map_err(draw_err)?;
+        root.present().map_err(draw_err)?;
     }
     let img = image_png(&pixels, w, h)?;
     write_atomic(path, |out| out.write_all(&img))?;
@@ -66,9 +97,9 @@ fn image_png(pixels: &[u8], w: u32, h: u32) -> Result<Vec<u8>> {
     {
         let root = BitMapBackend::new(&p, (w, h)).into_drawing_area();
         let src = BitMapElement::with_owned_buffer((0, 0), (w, h), pixels.to_vec())
-            .ok_or_else(|| anyhow!("plot buffer has the wrong size"))?;
-        root.draw(&src).map_err(|e| anyhow!("plot: {e}"))?;
-        root.present().map_err(|e| anyhow!("plot: {e}"))?;
+            .ok_or_else(|| PlotError::Draw("plot buffer has the wrong size".into()))?;
+        root.draw(&src).map_err(draw_err)?;
+        root.present().map_err(draw_err)?;
     }
     Ok(std::fs::read(&p)?)
 }
@@ -82,7 +113,7 @@ pub fn spectrogram_png(path: &Path, x: &[f64], sample_rate_hz: f64, title: &str)
     let mut pixels = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
+        root.fill(&WHITE).map_err(draw_err)?;
         draw_spectrogram_of(
             &root,
             x,
@@ -91,8 +122,8 @@ pub fn spectrogram_png(path: &Path, x: &[f64], sample_rate_hz: f64, title: &str)
             title,
             Some(x.len() as f64 / sample_rate_hz),
         )
-        .map_err(|e| anyhow!("plot: {e}"))?;
-        root.present().map_err(|e| anyhow!("plot: {e}"))?;
+        .map_err(draw_err)?;
+        root.present().map_err(draw_err)?;
     }
     let img = image_png(&pixels, w, h)?;
     write_atomic(path, |out| out.write_all(&img))?;
@@ -270,9 +301,9 @@ pub fn estimate_png(path: &Path, p: &EstimatePlot<'_>) -> Result<()> {
     let mut pixels = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
+        root.fill(&WHITE).map_err(draw_err)?;
         let (top, bottom) = root.split_vertically(500);
-        draw_estimate_features(&top, p).map_err(|e| anyhow!("plot: {e}"))?;
+        draw_estimate_features(&top, p).map_err(draw_err)?;
         let (l, r) = bottom.split_horizontally(700);
         let vmax = p
             .reference_image
@@ -282,10 +313,10 @@ pub fn estimate_png(path: &Path, p: &EstimatePlot<'_>) -> Result<()> {
             .copied()
             .fold(1e-9, f64::max);
         draw_loudness(&l, p.reference_image, vmax, "recording: loudness (sone)")
-            .map_err(|e| anyhow!("plot: {e}"))?;
+            .map_err(draw_err)?;
         draw_loudness(&r, p.estimated_image, vmax, "estimate: loudness (sone)")
-            .map_err(|e| anyhow!("plot: {e}"))?;
-        root.present().map_err(|e| anyhow!("plot: {e}"))?;
+            .map_err(draw_err)?;
+        root.present().map_err(draw_err)?;
     }
     let img = image_png(&pixels, w, h)?;
     write_atomic(path, |out| out.write_all(&img))?;
@@ -344,7 +375,7 @@ fn draw_estimate_features(
         })
         .collect();
     chart.draw_series(LineSeries::new(curve, BLACK.stroke_width(2)))?;
-    let level = |m: &DampedMode| resound::signal::mode_level(m, resound::signal::LEVEL_WINDOW_S);
+    let level = |m: &DampedMode| resound_signal::mode_level(m, resound_signal::LEVEL_WINDOW_S);
     let strongest = p.reference.iter().map(level).fold(1e-300, f64::max);
     let radius = |m: &DampedMode| {
         let db = 20.0 * (level(m) / strongest).log10();

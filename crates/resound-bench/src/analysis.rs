@@ -9,12 +9,12 @@
 //!    of f and d over the recalled modes.
 //! 3. Analysis time per second of audio.
 
-use crate::analyze::{analyze, AnalyzeParams};
-use crate::crb::cramer_rao;
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use resound_core::{damped::synthesize, DampedMode};
+use resound_signal::analyze::{analyze, AnalyzeParams};
+use resound_signal::crb::cramer_rao;
 use serde::Serialize;
 use std::time::Instant;
 

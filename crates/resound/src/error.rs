@@ -1,0 +1,79 @@
+//! The facade's error: every stage's error, plus what the pipeline itself checks.
+
+/// Why a pipeline step failed. Each variant keeps the stage's own error (with its numbers);
+/// [`Error::In`] adds which file or step it happened in.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// Reading or writing a file.
+    #[error(transparent)]
+    Io(#[from] resound_io::IoError),
+    /// A scene file.
+    #[error(transparent)]
+    SceneFile(#[from] resound_io::scene::SceneFileError),
+    /// A material's constants.
+    #[error(transparent)]
+    Material(#[from] resound_core::MaterialError),
+    /// A modal model (hit off the surface, inconsistent file).
+    #[error(transparent)]
+    Model(#[from] resound_core::ModalModelError),
+    /// Discretization or the eigen-solve.
+    #[error("modal analysis: {0}")]
+    Modal(#[from] resound_modal::ModelError),
+    /// Recording analysis.
+    #[error(transparent)]
+    Analyze(#[from] resound_signal::AnalyzeError),
+    /// Material estimation.
+    #[error(transparent)]
+    Estimate(#[from] resound_estimate::EstimateError),
+    /// Synthesis.
+    #[error(transparent)]
+    Synth(#[from] resound_synth::SynthError),
+    /// A scene simulation.
+    #[error(transparent)]
+    Scene(#[from] resound_physics::SceneError),
+    /// Grains.
+    #[error(transparent)]
+    Grains(#[from] resound_grains::GrainError),
+    /// Mode statistics.
+    #[error(transparent)]
+    Stats(#[from] resound_stats::StatsError),
+    /// A picture.
+    #[cfg(feature = "plot")]
+    #[error(transparent)]
+    Plot(#[from] resound_plot::PlotError),
+    /// A value the pipeline refuses, with the reason.
+    #[error("{0}")]
+    Invalid(String),
+    /// `source` happened while working on `what` (a file, a body, a step).
+    #[error("{what}: {source}")]
+    In {
+        /// The file or step.
+        what: String,
+        /// The cause.
+        source: Box<Error>,
+    },
+}
+
+impl Error {
+    /// Wraps `self` with the file or step it happened in.
+    pub fn context(self, what: impl Into<String>) -> Self {
+        Error::In {
+            what: what.into(),
+            source: Box::new(self),
+        }
+    }
+
+    /// The same for a path.
+    pub fn at(self, path: &std::path::Path) -> Self {
+        self.context(path.display().to_string())
+    }
+}
+
+/// `Result` with [`Error`].
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// Shorthand for [`Error::Invalid`].
+pub(crate) fn invalid(msg: impl Into<String>) -> Error {
+    Error::Invalid(msg.into())
+}

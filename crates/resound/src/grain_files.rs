@@ -1,0 +1,209 @@
+//! Grains (Picard 2009) from files: recordings with their contact kind, dictionary figures.
+
+use crate::error::{invalid, Result};
+use resound_grains::quality::spectral_convergence_db;
+use resound_grains::resynth::{resynthesize, ResynthParams};
+use resound_grains::{guess_contact, Contact, Dictionary, Part, Recording};
+use serde::Serialize;
+use std::path::Path;
+
+/// How the contact kind of a recording is decided.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KindRule {
+    /// From the file name (roll…, slid…/scrap…), else the envelope (sustained or bursts).
+    Auto,
+    /// This kind for every recording.
+    Fixed(Contact),
+}
+
+/// Parses a contact kind name (`impact`, `rolling`, `sliding`, `continuous`, `auto`).
+pub fn parse_kind(name: &str) -> Option<KindRule> {
+    Some(match name.to_ascii_lowercase().as_str() {
+        "auto" => KindRule::Auto,
+        "impact" => KindRule::Fixed(Contact::Impact),
+        "rolling" => KindRule::Fixed(Contact::Rolling),
+        "sliding" => KindRule::Fixed(Contact::Sliding),
+        "continuous" => KindRule::Fixed(Contact::Continuous),
+        _ => return None,
+    })
+}
+
+fn contact_of(rule: KindRule, name: &str, x: &[f32], fs: f64) -> Contact {
+    match rule {
+        KindRule::Fixed(c) => c,
+        KindRule::Auto => {
+            let n = name.to_lowercase();
+            if n.contains("roll") {
+                Contact::Rolling
+            } else if n.contains("slid") || n.contains("scrap") {
+                Contact::Sliding
+            } else {
+                guess_contact(x, fs)
+            }
+        }
+    }
+}
+
+/// Loads recordings (each spec a path, optionally prefixed `kind:`) as mono f32 at one rate
+/// (`rate`, else the first file's): the recordings, the rate, and the bytes on disk.
+///
+/// # Errors
+/// Unreadable files; failed resampling.
+pub fn load_recordings(
+    specs: &[String],
+    rule: KindRule,
+    rate: Option<u32>,
+) -> Result<(Vec<Recording>, f64, usize)> {
+    let mut out = Vec::new();
+    let mut fs: Option<u32> = rate;
+    let mut bytes = 0usize;
+    for spec in specs {
+        let (k, path) = match spec.split_once(':') {
+            Some((p, rest)) if !Path::new(spec).exists() && parse_kind(p).is_some() => {
+                (parse_kind(p).unwrap_or(rule), rest)
+            }
+            _ => (rule, spec.as_str()),
+        };
+        let path = Path::new(path);
+        bytes += std::fs::metadata(path).map_or(0, |m| m.len() as usize);
+        let clip = resound_io::load_audio(path)?;
+        let x = clip.mono(None, path)?;
+        let target = *fs.get_or_insert(clip.sample_rate_hz);
+        let x = resound_signal::resample::resample(&x, clip.sample_rate_hz, target)
+            .map_err(|e| invalid(e).at(path))?;
+        let samples: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+        let name = path.file_stem().map_or(String::from("recording"), |s| {
+            s.to_string_lossy().into_owned()
+        });
+        let contact = contact_of(k, &name, &samples, f64::from(target));
+        out.push(Recording {
+            name,
+            contact,
+            samples,
+        });
+    }
+    Ok((out, f64::from(fs.unwrap_or(44_100)), bytes))
+}
+
+/// Figures of one recording in a dictionary.
+#[derive(Clone, Debug, Serialize)]
+pub struct RecordingSummary {
+    /// Name.
+    pub name: String,
+    /// Contact kind.
+    pub contact: Contact,
+    /// Length, s.
+    pub duration_s: f64,
+    /// Grains cut from it.
+    pub grains: usize,
+    /// Pattern peaks.
+    pub peaks: usize,
+    /// Bytes of its grains.
+    pub grain_bytes: usize,
+    /// Its 16-bit size over what the dictionary stores for it.
+    pub compression_ratio: f64,
+    /// Rebuild quality against the original, dB (when the originals are given).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spectral_convergence_db: Option<f64>,
+}
+
+/// Figures of a dictionary.
+#[derive(Clone, Debug, Serialize)]
+pub struct DictionarySummary {
+    /// Sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Grains.
+    pub grains: usize,
+    /// Impulsive grains.
+    pub impulsive: usize,
+    /// Sinusoidal grains.
+    pub sinusoidal: usize,
+    /// Transient grains.
+    pub transient: usize,
+    /// Median impulsive grain, ms.
+    pub median_grain_ms: f64,
+    /// 16-bit mono size of the recordings.
+    pub original_bytes: usize,
+    /// Bytes of grains.
+    pub grain_bytes: usize,
+    /// Bytes of patterns.
+    pub pattern_bytes: usize,
+    /// Original over stored.
+    pub compression_ratio: f64,
+    /// Per recording.
+    pub recordings: Vec<RecordingSummary>,
+}
+
+/// Figures of `d`, with each recording's rebuild quality when the `originals` are given.
+///
+/// # Errors
+/// A failed rebuild.
+pub fn summary(d: &Dictionary, originals: Option<&[Recording]>) -> Result<DictionarySummary> {
+    let mut recs = Vec::new();
+    for (i, r) in d.recordings.iter().enumerate() {
+        let mine = || d.grains.iter().filter(move |g| g.recording as usize == i);
+        let peaks: usize = d.patterns_of(i).map(|(_, p)| p.peaks.len()).sum();
+        let grain_bytes: usize = mine()
+            .map(|g| g.samples.len() * resound_grains::GRAIN_SAMPLE_BYTES)
+            .sum();
+        let stored = grain_bytes + peaks * resound_grains::PEAK_BYTES;
+        let spectral_convergence_db = match originals {
+            Some(o) => {
+                let y = resynthesize(d, i, &ResynthParams::default())?;
+                Some(spectral_convergence_db(&o[i].samples, &y, d.sample_rate_hz))
+            }
+            None => None,
+        };
+        recs.push(RecordingSummary {
+            name: r.name.clone(),
+            contact: r.contact,
+            duration_s: f64::from(r.samples) / d.sample_rate_hz,
+            grains: mine().count(),
+            peaks,
+            grain_bytes,
+            compression_ratio: (r.samples as usize * resound_grains::GRAIN_SAMPLE_BYTES) as f64
+                / stored.max(1) as f64,
+            spectral_convergence_db,
+        });
+    }
+    let count = |p: Part| d.grains_of(p).count();
+    let stored = d.grain_bytes() + d.pattern_bytes();
+    Ok(DictionarySummary {
+        sample_rate_hz: d.sample_rate_hz,
+        grains: d.grains.len(),
+        impulsive: count(Part::Impulsive),
+        sinusoidal: count(Part::Sinusoidal),
+        transient: count(Part::Transient),
+        median_grain_ms: 1e3 * d.median_len(Part::Impulsive) as f64 / d.sample_rate_hz,
+        original_bytes: d.original_bytes(),
+        grain_bytes: d.grain_bytes(),
+        pattern_bytes: d.pattern_bytes(),
+        compression_ratio: d.original_bytes() as f64 / stored.max(1) as f64,
+        recordings: recs,
+    })
+}
+
+/// The index of a recording given by index or name.
+///
+/// # Errors
+/// Unknown names (listing the known ones).
+pub fn recording_index(d: &Dictionary, spec: &str) -> Result<usize> {
+    if let Ok(k) = spec.parse::<usize>() {
+        if k < d.recordings.len() {
+            return Ok(k);
+        }
+    }
+    d.recordings
+        .iter()
+        .position(|r| r.name == spec)
+        .ok_or_else(|| {
+            invalid(format!(
+                "no recording '{spec}' (the dictionary has: {})",
+                d.recordings
+                    .iter()
+                    .map(|r| r.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
+        })
+}

@@ -1,0 +1,308 @@
+//! Materials: finding one (file, library, preset) and estimating one from a recording (Ren §5,
+//! with the §6.1 residual).
+
+use crate::error::{invalid, Error, Result};
+use resound_core::{DampedMode, Hit, Material, ModalModel, Provenance, SoundMaterial};
+use resound_estimate::estimate::{starting_points_within, Objective, MAX_STARTS};
+use resound_estimate::{estimate, EstimateParams, ModalSide, RayleighParams};
+use resound_io::library::{default_library_path, read_material, Library};
+use resound_signal::Analysis;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// The library at `path`, or the default one ($RESOUND_LIBRARY, else
+/// ~/.local/share/resound/materials.sqlite).
+///
+/// # Errors
+/// No home directory for the default; the library cannot be opened.
+pub fn open_library(path: Option<&Path>) -> Result<Library> {
+    let path: PathBuf = match path {
+        Some(p) => p.to_path_buf(),
+        None => default_library_path().ok_or_else(|| {
+            invalid("no home directory for the default library; pass --library PATH")
+        })?,
+    };
+    Library::open(&path).map_err(|e| {
+        Error::from(e).context(format!("opening the material library {}", path.display()))
+    })
+}
+
+/// A library entry by name; a missing name lists the known ones.
+///
+/// # Errors
+/// Unknown names, unreadable libraries.
+pub fn library_material(lib: &Library, name: &str) -> Result<SoundMaterial> {
+    lib.get(name)?.ok_or_else(|| {
+        invalid(format!(
+            "no material {name:?} in the library (known: {})",
+            lib.names().unwrap_or_default().join(", ")
+        ))
+    })
+}
+
+/// The Rayleigh α, β of Ren's Table I material that matches an elastic preset.
+fn table_damping(preset: &str) -> Option<(f64, f64)> {
+    let ren = match preset {
+        "steel" | "aluminium" => "metal",
+        "ceramic" => "porcelain",
+        "glass" => "glass",
+        "wood" => "wood",
+        "plastic" => "plastic",
+        _ => return None,
+    };
+    SoundMaterial::ren_table_1()
+        .into_iter()
+        .find(|m| m.name == ren)
+        .map(|m| (m.alpha, m.beta))
+}
+
+/// `preset:NAME` as a sound material: an elastic preset's γ = E/ρ with the Rayleigh damping of
+/// the matching Ren 2013 Table I material (steel and aluminium → metal, ceramic → porcelain),
+/// σ = 1. (Ren's Table I γ values suit his meshes' units, not metres: the preset's γ gives
+/// metre-scale objects their real pitch.)
+pub fn preset_sound_material(name: &str) -> Option<SoundMaterial> {
+    let m = Material::preset(name).ok()?;
+    let (alpha, beta) = table_damping(name)?;
+    Some(SoundMaterial::rayleigh(
+        &format!("preset:{name}"),
+        alpha,
+        beta,
+        m.youngs_modulus / m.density,
+        1.0,
+    ))
+}
+
+/// Resolves a material reference: `preset:NAME`, a material file (relative to `base_dir`), a
+/// library name, or a plain preset name. The result is validated.
+///
+/// # Errors
+/// Unknown references, unreadable files, invalid values.
+pub fn resolve_material(
+    spec: &str,
+    base_dir: &Path,
+    library: Option<&Library>,
+) -> Result<SoundMaterial> {
+    let m = if let Some(p) = spec.strip_prefix("preset:") {
+        preset_sound_material(p).ok_or_else(|| {
+            invalid(format!(
+                "unknown preset {p:?} (steel, aluminium, glass, ceramic, wood, plastic)"
+            ))
+        })?
+    } else {
+        let path = base_dir.join(spec);
+        if spec.to_ascii_lowercase().ends_with(".json") || path.is_file() {
+            read_material(&path)?
+        } else {
+            match library.map(|l| l.get(spec)).transpose()?.flatten() {
+                Some(m) => m,
+                None => preset_sound_material(spec).ok_or_else(|| {
+                    invalid(format!(
+                        "no material {spec:?} in the library, no such file, and not a preset"
+                    ))
+                })?,
+            }
+        }
+    };
+    m.validate().map_err(invalid)?;
+    Ok(m)
+}
+
+/// Settings of [`estimate_material`].
+#[derive(Clone, Debug)]
+pub struct EstimateMaterialParams {
+    /// Name of the material.
+    pub name: String,
+    /// The optimizer's settings.
+    pub estimate: EstimateParams,
+    /// Compute the §6.1 residual (stored with the material).
+    pub residual: bool,
+    /// Longest residual kept, s (a residual is mostly the strike's transient).
+    pub max_residual_s: f64,
+    /// Recorded in the material's provenance.
+    pub recording_name: String,
+    /// Recorded in the material's provenance.
+    pub object_name: String,
+}
+
+impl Default for EstimateMaterialParams {
+    fn default() -> Self {
+        Self {
+            name: "estimated".into(),
+            estimate: EstimateParams::default(),
+            residual: true,
+            max_residual_s: 1.0,
+            recording_name: String::new(),
+            object_name: String::new(),
+        }
+    }
+}
+
+/// What [`estimate_material`] found besides the material.
+#[derive(Clone, Debug, Serialize)]
+pub struct EstimateInfo {
+    /// Best parameters.
+    pub params: RayleighParams,
+    /// Hybrid metric there (finite).
+    pub metric: f64,
+    /// Starting points run.
+    pub starts: usize,
+    /// Metric evaluations.
+    pub evaluations: usize,
+    /// Reference modes (the recording's features).
+    pub reference_modes: usize,
+    /// The estimated modes on the recorded object at the hit.
+    pub estimated_modes: Vec<DampedMode>,
+    /// Wall time, s.
+    pub elapsed_s: f64,
+    /// Things the user should know (the object's lowest mode above every recorded one, …).
+    pub warnings: Vec<String>,
+}
+
+/// The recorded object's side of the estimation: eigenvalues and gains at the hit.
+pub fn modal_side(model: &ModalModel, hit: &Hit) -> ModalSide {
+    ModalSide {
+        eigenvalues0: model.eigenvalues.clone(),
+        gains0: hit.gains.clone(),
+        gamma0: model.material.youngs_modulus / model.material.density,
+    }
+}
+
+/// How many starting points [`estimate_material`] will run (for a progress bar).
+pub fn start_count(
+    model: &ModalModel,
+    hit: &Hit,
+    analysis: &Analysis,
+    params: &EstimateParams,
+) -> usize {
+    let side = modal_side(model, hit);
+    let len_s = analysis.segment.len() as f64 / analysis.sample_rate_hz;
+    starting_points_within(&side, &analysis.modes, params.dominant, len_s)
+        .len()
+        .min(MAX_STARTS)
+}
+
+/// Estimates the material of the object `model`, struck at `hit`, from `analysis` (its modes
+/// and the very segment they were fitted to): α, β, γ, σ, then the §6.1 residual against the
+/// estimated modes. `tick` is called after each starting point.
+///
+/// # Errors
+/// No modes, a failed estimation, and a result that is not credible (a non-finite metric or
+/// invalid values) — an error, never a material file that cannot be read back.
+pub fn estimate_material(
+    analysis: &Analysis,
+    model: &ModalModel,
+    hit: &Hit,
+    params: &EstimateMaterialParams,
+    tick: &(dyn Fn() + Sync),
+) -> Result<(SoundMaterial, EstimateInfo)> {
+    if analysis.modes.is_empty() {
+        return Err(invalid(
+            "no modes in the recording: nothing to estimate from",
+        ));
+    }
+    SoundMaterial::rayleigh(&params.name, 1.0, 1.0, 1.0, 1.0)
+        .validate()
+        .map_err(invalid)?;
+    let t0 = std::time::Instant::now();
+    let fs = analysis.sample_rate_hz;
+    let side = modal_side(model, hit);
+    let seg = &analysis.segment;
+    let est = estimate(&side, seg, fs, &analysis.modes, &params.estimate, tick)?;
+    if !est.metric.is_finite() {
+        return Err(invalid(format!(
+            "the estimate's metric is not finite ({}): the recording does not fit this object",
+            est.metric
+        )));
+    }
+    let p = est.params;
+    let estimated = resound_estimate::forward_modes(
+        &side.eigenvalues0,
+        &side.gains0,
+        side.gamma0,
+        &p,
+        0.5 * fs,
+    );
+    let residual = params.residual.then(|| {
+        let mut r =
+            resound_estimate::residual::compute_residual(seg, fs, &analysis.modes, &estimated);
+        r.samples.truncate((params.max_residual_s * fs) as usize);
+        r
+    });
+    let mut warnings = Vec::new();
+    let band_top = analysis.modes.iter().map(|m| m.freq_hz).fold(0.0, f64::max);
+    let lowest = model.freq_hz(0) * (p.gamma / side.gamma0).sqrt();
+    if lowest > band_top {
+        warnings.push(format!(
+            "the object's lowest mode ({lowest:.0} Hz) lies above every recorded mode"
+        ));
+    }
+    let material = SoundMaterial {
+        residual,
+        provenance: Some(Provenance {
+            recording: params.recording_name.clone(),
+            mesh: params.object_name.clone(),
+            hit: hit.at.point,
+            metric: est.metric,
+            features: analysis.modes.clone(),
+        }),
+        ..SoundMaterial::rayleigh(&params.name, p.alpha, p.beta, p.gamma, p.sigma)
+    };
+    material.validate().map_err(invalid)?;
+    let info = EstimateInfo {
+        params: p,
+        metric: est.metric,
+        starts: est.starts,
+        evaluations: est.evaluations,
+        reference_modes: analysis.modes.len(),
+        estimated_modes: estimated,
+        elapsed_s: t0.elapsed().as_secs_f64(),
+        warnings,
+    };
+    Ok((material, info))
+}
+
+/// The picture of an estimate: features against the Rayleigh curve, and the two loudness
+/// images the metric compares (estimated modes within 60 dB of the recording's strongest).
+///
+/// # Errors
+/// Drawing or writing fails.
+#[cfg(feature = "plot")]
+pub fn estimate_plot(
+    path: &Path,
+    title: &str,
+    analysis: &Analysis,
+    model: &ModalModel,
+    hit: &Hit,
+    info: &EstimateInfo,
+    params: &EstimateParams,
+) -> Result<()> {
+    let side = modal_side(model, hit);
+    let objective = Objective::new(
+        &side,
+        &analysis.segment,
+        analysis.sample_rate_hz,
+        &analysis.modes,
+        params.floor_db,
+        params.route,
+    )?;
+    let level = |m: &DampedMode| resound_signal::mode_level(m, resound_signal::LEVEL_WINDOW_S);
+    let floor = analysis.modes.iter().map(level).fold(0.0, f64::max) * 1e-3;
+    let shown: Vec<DampedMode> = objective
+        .modes(&info.params)
+        .into_iter()
+        .filter(|m| level(m) >= floor)
+        .collect();
+    resound_plot::estimate_png(
+        path,
+        &resound_plot::EstimatePlot {
+            title,
+            reference: &analysis.modes,
+            estimated: &shown,
+            alpha: info.params.alpha,
+            beta: info.params.beta,
+            reference_image: objective.reference_image(),
+            estimated_image: &objective.image(&info.params),
+        },
+    )?;
+    Ok(())
+}

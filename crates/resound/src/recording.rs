@@ -1,0 +1,89 @@
+//! A recording from a file to its modes: decode, pick or mix channels, resample, analyse.
+//!
+//! The [`Analysis`] carries the very segment its modes were fitted to
+//! ([`Analysis::segment`]); estimation, the residual and pictures use that, so every stage
+//! sees the same samples.
+
+use crate::error::{invalid, Error, Result};
+use resound_io::load_audio;
+use resound_signal::{analyze, Analysis, AnalyzeParams};
+use std::path::Path;
+
+/// A decoded recording, one channel (or the mix), f64 at `sample_rate_hz`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Recording {
+    /// Samples, full scale = 1.
+    pub samples: Vec<f64>,
+    /// Sample rate, Hz.
+    pub sample_rate_hz: u32,
+    /// The codec the file was decoded with.
+    pub codec: String,
+}
+
+/// Which part of a file to take.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RecordingParams {
+    /// Channel K (0-based) instead of the mix of all channels.
+    pub channel: Option<usize>,
+    /// Resample to this rate first (rubato), Hz.
+    pub resample_hz: Option<u32>,
+}
+
+/// Decodes `path` (WAV, FLAC, OGG Vorbis, MP3).
+///
+/// # Errors
+/// Unreadable, truncated or corrupt files; a channel that does not exist; a resampling rate
+/// outside 8–192 kHz.
+pub fn load_recording(path: &Path, params: &RecordingParams) -> Result<Recording> {
+    let clip = load_audio(path)?;
+    let mut samples = clip.mono(params.channel, path)?;
+    let mut fs = clip.sample_rate_hz;
+    if let Some(to) = params.resample_hz {
+        if !(8000..=192_000).contains(&to) {
+            return Err(invalid(format!(
+                "resampling rate {to} Hz is outside 8000–192000 Hz"
+            )));
+        }
+        samples = resound_signal::resample::resample(&samples, fs, to)
+            .map_err(|e| invalid(e).at(path))?;
+        fs = to;
+    }
+    Ok(Recording {
+        samples,
+        sample_rate_hz: fs,
+        codec: clip.codec,
+    })
+}
+
+/// Decodes and analyses `path`: the recording and its modes. An analysis that finds no mode is
+/// an error (with a hint when the file holds several strikes).
+///
+/// # Errors
+/// As [`load_recording`] and [`analyze`]; no modes found.
+pub fn analyze_file(
+    path: &Path,
+    recording: &RecordingParams,
+    params: &AnalyzeParams,
+) -> Result<(Recording, Analysis)> {
+    let rec = load_recording(path, recording)?;
+    let res = analyze(&rec.samples, f64::from(rec.sample_rate_hz), params)
+        .map_err(|e| Error::from(e).context(format!("cannot analyse {}", path.display())))?;
+    if res.modes.is_empty() {
+        let hint = if res.strikes_s.len() > 1 {
+            format!(
+                " (strike {} of {} lasts {:.0} ms; try another)",
+                params.strike + 1,
+                res.strikes_s.len(),
+                1e3 * res.samples as f64 / res.sample_rate_hz
+            )
+        } else {
+            String::new()
+        };
+        return Err(invalid(format!(
+            "no modes found in {} above the noise and within {} dB of the strongest peak{hint}",
+            path.display(),
+            params.min_db
+        )));
+    }
+    Ok((rec, res))
+}

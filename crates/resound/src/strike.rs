@@ -1,0 +1,289 @@
+//! One strike of an object, offline: the object's modes (from a material on a modal model at a
+//! hit, from analysed modes, or sampled from mode statistics) struck by an impactor (Hertz,
+//! spring or impulse), plus the material's transferred residual (Ren §6.2) or the statistics'
+//! transient bands.
+
+use crate::error::{invalid, Result};
+use resound_core::{DampedMode, Hit, Material, ModalModel, SoundMaterial};
+use resound_stats::ModeStatistics;
+use resound_synth::excitation::{ContactModel, Elastic, Impact};
+use resound_synth::render::{bank_modes, render_strike as render_bank, REFERENCE_IMPULSE_N_S};
+use resound_synth::residual::{GriffinLim, Pairing, ResidualSource};
+use resound_synth::BankMode;
+use serde::Serialize;
+
+/// What is struck.
+#[derive(Clone, Copy, Debug)]
+pub enum Struck<'a> {
+    /// An object of `material` (its modal `model`, struck at `hit`). `same_object`: the model
+    /// and hit are the recorded ones, so the residual pairs modes by index.
+    Object {
+        /// The material.
+        material: &'a SoundMaterial,
+        /// The object's modal model (solved with any reference material).
+        model: &'a ModalModel,
+        /// Where it is struck.
+        hit: &'a Hit,
+        /// Whether this is the object and hit the material was estimated on.
+        same_object: bool,
+    },
+    /// Analysed modes rendered exactly as recorded (phases included), at the recording's level
+    /// for the reference impact.
+    Modes(&'a [DampedMode]),
+    /// An impulse response sampled from mode statistics (Traer 2019) with `seed`.
+    Stats {
+        /// The statistics.
+        stats: &'a ModeStatistics,
+        /// Seed of the sampled IR; the per-impact variation uses seed + 1, the transient seed + 2.
+        seed: u64,
+    },
+}
+
+/// The impactor and the strike.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StrikeParams {
+    /// Impact speed, m/s.
+    pub speed_m_s: f64,
+    /// Impactor mass, kg (`None`: a sphere of `impactor_radius_m` of the impactor material).
+    pub impactor_mass_kg: Option<f64>,
+    /// Impactor radius at the contact, m.
+    pub impactor_radius_m: f64,
+    /// Impactor material.
+    pub impactor: Material,
+    /// Contact force law.
+    pub contact: ContactModel,
+    /// Add the material's residual (or the statistics' transient).
+    pub residual: bool,
+    /// Length, s.
+    pub duration_s: f64,
+    /// Sample rate, Hz.
+    pub sample_rate_hz: u32,
+}
+
+impl Default for StrikeParams {
+    fn default() -> Self {
+        Self {
+            speed_m_s: 1.0,
+            impactor_mass_kg: None,
+            impactor_radius_m: 0.005,
+            impactor: Material::preset("steel").unwrap_or_else(|_| unreachable!()),
+            contact: ContactModel::Hertz,
+            residual: true,
+            duration_s: 2.0,
+            sample_rate_hz: 48_000,
+        }
+    }
+}
+
+/// Figures of a rendered strike.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct StrikeInfo {
+    /// Modes rendered.
+    pub modes: usize,
+    /// The impact's impulse, N·s.
+    pub impulse_n_s: f64,
+    /// Contact duration, s (0 for analysed modes).
+    pub contact_s: f64,
+    /// Residual pairing used: "natural", "dominant", "transient" or "none".
+    pub residual: &'static str,
+    /// Time spent transferring the residual, s.
+    pub residual_transfer_s: f64,
+    /// The hit point on the surface (objects only), m.
+    pub hit: Option<[f64; 3]>,
+}
+
+/// A rendered strike and its parts (the live engine replays the parts: modes struck by the
+/// force pulse, plus the added signal).
+#[derive(Clone, Debug)]
+pub struct Strike {
+    /// The sound, f32, full scale = 1 (not normalized).
+    pub samples: Vec<f32>,
+    /// Bank modes with gains per N·s (empty for analysed modes, rendered exactly instead).
+    pub modes: Vec<BankMode>,
+    /// Force pulse, N per sample.
+    pub force: Vec<f32>,
+    /// What is added to the bank's output: residual, transient, or the exact analysed modes.
+    pub extra: Vec<f32>,
+    /// Figures.
+    pub info: StrikeInfo,
+}
+
+fn check(p: &StrikeParams) -> Result<()> {
+    let fs = f64::from(p.sample_rate_hz);
+    if !(8000.0..=192_000.0).contains(&fs) {
+        return Err(invalid(format!(
+            "sample rate must be within 8000–192000 Hz, got {}",
+            p.sample_rate_hz
+        )));
+    }
+    if !(p.duration_s > 0.0 && p.duration_s <= 600.0) {
+        return Err(invalid(format!(
+            "duration must be in (0, 600] s, got {}",
+            p.duration_s
+        )));
+    }
+    if !(p.speed_m_s.is_finite() && p.speed_m_s >= 0.0 && p.speed_m_s < 1000.0) {
+        return Err(invalid(format!(
+            "speed must be in [0, 1000) m/s, got {}",
+            p.speed_m_s
+        )));
+    }
+    if !(p.impactor_radius_m > 0.0 && p.impactor_radius_m < 10.0) {
+        return Err(invalid(format!(
+            "impactor radius must be in (0, 10) m, got {}",
+            p.impactor_radius_m
+        )));
+    }
+    if let Some(m) = p.impactor_mass_kg {
+        if !(m > 0.0 && m.is_finite()) {
+            return Err(invalid(format!("impactor mass must be > 0 kg, got {m}")));
+        }
+    }
+    Ok(())
+}
+
+fn elastic(m: &Material) -> Elastic {
+    Elastic {
+        youngs_modulus: m.youngs_modulus,
+        poisson_ratio: m.poisson_ratio,
+    }
+}
+
+/// Renders one strike.
+///
+/// # Errors
+/// Parameters out of range; an object without modes below Nyquist; a failed force pulse or
+/// resampling; a non-finite result.
+pub fn render_strike(struck: Struck<'_>, p: &StrikeParams) -> Result<Strike> {
+    check(p)?;
+    let fs = f64::from(p.sample_rate_hz);
+    let samples = (p.duration_s * fs).round() as usize;
+    let mass = p.impactor_mass_kg.unwrap_or_else(|| {
+        4.0 / 3.0 * std::f64::consts::PI * p.impactor_radius_m.powi(3) * p.impactor.density
+    });
+    let mut impact = Impact {
+        impactor_mass_kg: mass,
+        impactor_radius_m: p.impactor_radius_m,
+        impactor: elastic(&p.impactor),
+        object: elastic(&p.impactor),
+        object_mass_kg: None,
+        speed_m_s: p.speed_m_s,
+    };
+    let scale = impact.impulse_n_s() / REFERENCE_IMPULSE_N_S;
+    let mut info = StrikeInfo {
+        impulse_n_s: impact.impulse_n_s(),
+        residual: "none",
+        ..Default::default()
+    };
+    let (modes, extra): (Vec<DampedMode>, Vec<f32>) = match struck {
+        Struck::Modes(modes) => {
+            if let Some(m) = modes.iter().find(|m| {
+                !(m.freq_hz.is_finite()
+                    && m.damping_per_s.is_finite()
+                    && m.damping_per_s >= 0.0
+                    && m.amplitude.is_finite()
+                    && m.phase_rad.is_finite())
+            }) {
+                return Err(invalid(format!("unusable mode {m:?}")));
+            }
+            let kept: Vec<DampedMode> = modes
+                .iter()
+                .copied()
+                .filter(|m| m.freq_hz < 0.5 * fs)
+                .collect();
+            if kept.is_empty() {
+                return Err(invalid("no modes below Nyquist"));
+            }
+            info.modes = kept.len();
+            let x: Vec<f32> = resound_core::damped::synthesize(&kept, fs, samples)
+                .iter()
+                .map(|&v| (v * scale) as f32)
+                .collect();
+            return Ok(Strike {
+                samples: x.clone(),
+                modes: Vec::new(),
+                force: Vec::new(),
+                extra: x,
+                info,
+            });
+        }
+        Struck::Stats { stats, seed } => {
+            let ir = resound_stats::perturb(&stats.sample(seed)?, seed.wrapping_add(1));
+            let modes: Vec<DampedMode> = ir.into_iter().filter(|m| m.freq_hz < 0.5 * fs).collect();
+            let mut extra = Vec::new();
+            if let (Some(ts), true) = (&stats.transient, p.residual) {
+                let t = ts.sample(seed.wrapping_add(2));
+                extra = resound_stats::transient::synthesize_transient(&t, fs, samples, seed)
+                    .iter()
+                    .map(|v| (v * scale) as f32)
+                    .collect();
+                info.residual = "transient";
+            }
+            (modes, extra)
+        }
+        Struck::Object {
+            material,
+            model,
+            hit,
+            same_object,
+        } => {
+            material.validate().map_err(invalid)?;
+            let gamma0 = model.material.youngs_modulus / model.material.density;
+            let modes = material.modes(&model.eigenvalues, &hit.gains, gamma0, 0.5 * fs);
+            impact.object = Elastic {
+                youngs_modulus: material.gamma * model.material.density,
+                poisson_ratio: model.material.poisson_ratio,
+            };
+            info.hit = Some(hit.at.point);
+            let mut extra = Vec::new();
+            if let (Some(r), true, false) = (&material.residual, p.residual, modes.is_empty()) {
+                let pairing = if same_object {
+                    Pairing::Natural
+                } else {
+                    Pairing::Dominant(8)
+                };
+                info.residual = if same_object { "natural" } else { "dominant" };
+                let t1 = std::time::Instant::now();
+                let res = ResidualSource::new(r).transfer(&modes, pairing, &GriffinLim::default());
+                info.residual_transfer_s = t1.elapsed().as_secs_f64();
+                let res: Vec<f64> = res.iter().map(|&v| f64::from(v)).collect();
+                // The residual's modes are at the recording's rate; the target modes at ours.
+                let res = if (r.sample_rate_hz - fs).abs() > 0.5 {
+                    resound_signal::resample::resample(
+                        &res,
+                        r.sample_rate_hz.round() as u32,
+                        p.sample_rate_hz,
+                    )
+                    .map_err(invalid)?
+                } else {
+                    res
+                };
+                extra = res.iter().map(|v| (v * scale) as f32).collect();
+            }
+            (modes, extra)
+        }
+    };
+    if modes.is_empty() {
+        return Err(invalid(format!(
+            "the object has no modes below Nyquist ({} Hz)",
+            0.5 * fs
+        )));
+    }
+    info.modes = modes.len();
+    info.contact_s = impact.duration_s(p.contact);
+    let force = impact.force_pulse(p.contact, fs, 0.0)?;
+    // Gains per N·s: σa⁰ is the recording's level for the reference impact.
+    let mut bm = bank_modes(&modes);
+    bm.iter_mut().for_each(|m| m.gain /= REFERENCE_IMPULSE_N_S);
+    let mut out = render_bank(&bm, &force, fs, samples)?;
+    for (o, v) in out.iter_mut().zip(&extra) {
+        *o += v;
+    }
+    Ok(Strike {
+        samples: out,
+        modes: bm,
+        force,
+        extra,
+        info,
+    })
+}
