@@ -125,8 +125,7 @@ pub fn recovery_case_between(
     }
     let analysis =
         analyze(&x, fs, &AnalyzeParams::default()).map_err(|e| format!("{name}: {e}"))?;
-    let onset = (analysis.onset_s * fs).round() as usize;
-    let seg = &x[onset..onset + analysis.samples];
+    let seg = &analysis.segment;
     let params = EstimateParams {
         route,
         ..EstimateParams::default()

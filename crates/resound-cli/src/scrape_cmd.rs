@@ -3,14 +3,15 @@
 use crate::estimate_cmd::{load_model, snap};
 use crate::synth_cmd::{load_sound_material, FormatArg};
 use crate::util::parse_vec3;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use resound::core::DampedMode;
 use resound::io::{write_wav, WavFormat};
-use resound::synth::render::{bank_modes, normalize, REFERENCE_IMPULSE_N_S};
-use resound::synth::scrape::{positions, scrape, scrape_force, ScrapeParams, Surface};
+use resound::scrape::{read_trajectory, render_scrape, Path1d, ScrapeJob, SurfaceSpec};
+use resound::synth::render::normalize;
+use resound::synth::scrape::ScrapeParams;
 use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `scrape`.
 #[derive(Args, Debug)]
@@ -84,40 +85,6 @@ pub struct ScrapeArgs {
     pub json: bool,
 }
 
-fn read_trajectory(path: &Path) -> Result<Vec<(f64, f64)>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let mut out: Vec<(f64, f64)> = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let parts: Vec<&str> = line.split(',').map(str::trim).collect();
-        let parsed = (parts.len() == 2)
-            .then(|| Some((parts[0].parse::<f64>().ok()?, parts[1].parse::<f64>().ok()?)))
-            .flatten();
-        match parsed {
-            Some((t, x)) if t.is_finite() && x.is_finite() => {
-                if out.last().is_some_and(|&(t0, _)| t <= t0) {
-                    bail!("{} line {}: times must increase", path.display(), i + 1);
-                }
-                out.push((t, x));
-            }
-            _ if out.is_empty() && i == 0 => {} // a header line
-            _ => bail!(
-                "{} line {}: expected `time_s,position_m`, got {line:?}",
-                path.display(),
-                i + 1
-            ),
-        }
-    }
-    if out.len() < 2 {
-        bail!("{}: a trajectory needs at least two points", path.display());
-    }
-    Ok(out)
-}
-
 fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
     if let Some(p) = &a.stats {
         let s = resound::files::load_stats(p)?;
@@ -139,61 +106,36 @@ fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
 /// Runs `scrape`.
 pub fn run(a: ScrapeArgs) -> Result<()> {
     let fs = f64::from(a.sample_rate);
-    if !((8000.0..=192_000.0).contains(&fs) && a.duration > 0.0 && a.duration <= 600.0) {
-        bail!("--sample-rate must be within 8000–192000 Hz and --duration in (0, 600] s");
-    }
-    let p = ScrapeParams {
-        probe_mass_kg: a.probe_mass,
-        friction: a.friction,
-        gamma: a.gamma,
-        tip_width_m: a.tip_width,
-    };
-    if !(a.tip_width.is_finite() && a.tip_width >= 0.0 && a.tip_width < 0.05) {
-        bail!("--tip-width must be in [0, 0.05) m");
-    }
-    if !(p.probe_mass_kg > 0.0
-        && p.probe_mass_kg.is_finite()
-        && p.friction >= 0.0
-        && p.friction.is_finite()
-        && p.gamma > 0.0
-        && p.gamma <= 4.0)
-    {
-        bail!("--probe-mass must be > 0, --friction ≥ 0 and --gamma in (0, 4]");
-    }
-    let samples = (a.duration * fs).round() as usize;
-    let x = match (&a.trajectory, a.speed) {
-        (Some(t), _) => positions(&read_trajectory(t)?, fs, samples),
-        (None, Some(v)) if v.is_finite() && v.abs() < 100.0 => {
-            (0..samples).map(|i| v * i as f64 / fs).collect()
-        }
-        (None, Some(v)) => bail!("--speed must be below 100 m/s, got {v}"),
+    let path = match (&a.trajectory, a.speed) {
+        (Some(t), _) => Path1d::Trajectory(read_trajectory(t)?),
+        (None, Some(v)) => Path1d::Speed(v),
         (None, None) => bail!("give --trajectory FILE or --speed M/S"),
     };
     let surface = if a.surface == "fractal" {
-        Surface::fractal(1 << 20, a.surface_spacing_m, 2.0, a.roughness_m, a.seed)?
+        SurfaceSpec::Fractal {
+            roughness_m: a.roughness_m,
+        }
     } else {
-        let heights = resound::io::npy::read_npy_f64(Path::new(&a.surface))?;
-        let patch = (heights.len() / 8).clamp(16, 8192);
-        Surface::quilt(
-            &heights,
-            a.surface_spacing_m,
-            heights.len().max(1 << 18),
-            patch,
-            a.seed,
-        )
-        .with_context(|| format!("quilting {}", a.surface))?
+        SurfaceSpec::Profile(PathBuf::from(&a.surface))
     };
-    let modes: Vec<DampedMode> = object_modes(&a, fs)?
-        .into_iter()
-        .filter(|m| m.freq_hz < 0.5 * fs)
-        .collect();
-    if modes.is_empty() {
-        bail!("the scraped object has no modes below Nyquist");
-    }
-    let mut bm = bank_modes(&modes);
-    bm.iter_mut().for_each(|m| m.gain /= REFERENCE_IMPULSE_N_S);
-    let force = scrape_force(&surface, &x, fs, &p);
-    let mut out = scrape(&bm, &force, &x, fs, a.irs, a.seed)?;
+    let job = ScrapeJob {
+        modes: object_modes(&a, fs)?,
+        surface,
+        surface_spacing_m: a.surface_spacing_m,
+        path,
+        params: ScrapeParams {
+            probe_mass_kg: a.probe_mass,
+            friction: a.friction,
+            gamma: a.gamma,
+            tip_width_m: a.tip_width,
+        },
+        irs: a.irs,
+        seed: a.seed,
+        duration_s: a.duration,
+        sample_rate_hz: a.sample_rate,
+    };
+    let (mut out, path_m) = render_scrape(&job)?;
+    let modes = &job.modes;
     let level = normalize(&mut out, resound::synth::render::CEILING)?;
     if level.gain_db < 0.0 {
         eprintln!(
@@ -203,11 +145,6 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
     }
     let format = WavFormat::from(a.format);
     write_wav(&a.output, &out, a.sample_rate, format)?;
-    let path_m = x
-        .iter()
-        .zip(x.iter().skip(1))
-        .map(|(a, b)| (b - a).abs())
-        .sum::<f64>();
     if a.json {
         #[derive(Serialize)]
         struct Output {
@@ -219,7 +156,7 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
         }
         crate::util::print_json(&Output {
             output: a.output.display().to_string(),
-            modes: modes.len(),
+            modes: modes.iter().filter(|m| m.freq_hz < 0.5 * fs).count(),
             path_m,
             peak: level.peak_before,
             gain_db: level.gain_db,

@@ -157,6 +157,18 @@ struct Output<'a> {
 /// Runs `synth`.
 pub fn run(a: SynthArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
+    if !(8000..=192_000).contains(&a.sample_rate) {
+        bail!(
+            "--sample-rate must be within 8000–192000 Hz, got {}",
+            a.sample_rate
+        );
+    }
+    if !(a.duration > 0.0 && a.duration <= 600.0) {
+        bail!("--duration must be in (0, 600] s, got {}", a.duration);
+    }
+    if !(a.velocity.is_finite() && a.velocity >= 0.0 && a.velocity < 1000.0) {
+        bail!("--velocity must be in [0, 1000) m/s, got {}", a.velocity);
+    }
     let params = StrikeParams {
         speed_m_s: a.velocity,
         impactor_mass_kg: a.impactor_mass,

@@ -507,19 +507,17 @@ pub fn simulate(
                                 p.impact(at_sample, impulse);
                             }
                         }
-                        for &i in &[i1, i2] {
-                            excite(
-                                &mut voices[i],
-                                bodies,
-                                i,
-                                &world,
-                                handles[i],
-                                point,
-                                &pulse,
-                                scale,
-                                at_sample,
-                            );
-                        }
+                        excite_pair(
+                            &mut voices,
+                            bodies,
+                            [i1, i2],
+                            &world,
+                            &handles,
+                            point,
+                            &pulse,
+                            scale,
+                            at_sample,
+                        );
                     }
                     stats.impacts += 1;
                     events.push(Event {
@@ -585,19 +583,17 @@ pub fn simulate(
                     };
                     let f = resound_synth::scrape::scrape_force(surface, &xs, fs, &p);
                     state.path_m += speed * n as f64 / fs;
-                    for &i in &[i1, i2] {
-                        excite(
-                            &mut voices[i],
-                            bodies,
-                            i,
-                            &world,
-                            handles[i],
-                            point,
-                            &f[1..=n],
-                            1.0,
-                            0,
-                        );
-                    }
+                    excite_pair(
+                        &mut voices,
+                        bodies,
+                        [i1, i2],
+                        &world,
+                        &handles,
+                        point,
+                        &f[1..=n],
+                        1.0,
+                        0,
+                    );
                     stats.sliding_steps += 1;
                     let t = t_start + dt;
                     if state.last_kind != Some(ContactKind::Sliding)
@@ -645,19 +641,17 @@ pub fn simulate(
                             }
                         };
                     }
-                    for &i in &[i1, i2] {
-                        excite(
-                            &mut voices[i],
-                            bodies,
-                            i,
-                            &world,
-                            handles[i],
-                            point,
-                            &step_force,
-                            1.0,
-                            0,
-                        );
-                    }
+                    excite_pair(
+                        &mut voices,
+                        bodies,
+                        [i1, i2],
+                        &world,
+                        &handles,
+                        point,
+                        &step_force,
+                        1.0,
+                        0,
+                    );
                     match kind {
                         ContactKind::Sliding => stats.sliding_steps += 1,
                         _ => stats.rolling_steps += 1,
@@ -771,6 +765,33 @@ fn place(channels: &mut [Vec<f32>], buf: &[f32], s0: usize, pos: [f64; 3], param
         for (o, &x) in ch[start..end].iter_mut().zip(buf) {
             *o += x * gc;
         }
+    }
+}
+
+/// [`excite`] on both bodies of a contact.
+fn excite_pair(
+    voices: &mut [Option<Voice>],
+    bodies: &[BodySpec],
+    pair: [usize; 2],
+    world: &PhysicsWorld,
+    handles: &[RigidBodyHandle],
+    point: [f64; 3],
+    force: &[f32],
+    scale: f64,
+    at_sample: usize,
+) {
+    for i in pair {
+        excite(
+            &mut voices[i],
+            bodies,
+            i,
+            world,
+            handles[i],
+            point,
+            force,
+            scale,
+            at_sample,
+        );
     }
 }
 

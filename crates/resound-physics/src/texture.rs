@@ -1,31 +1,15 @@
 //! Fractal surface profiles: 1/f^β noise over distance, unit RMS, read by arc length.
 
-use rand::{Rng, SeedableRng};
-use realfft::num_complex::Complex64;
-use realfft::RealFftPlanner;
-
 /// Profile samples per metre (0.1 mm resolution).
 pub const SAMPLES_PER_M: f64 = 10_000.0;
 
-/// A periodic 1/f^β profile of `len` samples (a power of two), unit RMS.
+/// A periodic 1/f^β profile of `len` samples (a power of two), unit RMS, as f32
+/// ([`resound_synth::scrape::fractal_profile`]).
 pub fn fractal_profile(len: usize, beta: f64, seed: u64) -> Vec<f32> {
-    let mut rng = rand::rngs::SmallRng::seed_from_u64(seed);
-    let mut planner = RealFftPlanner::<f64>::new();
-    let inv = planner.plan_fft_inverse(len);
-    let mut spec = inv.make_input_vec();
-    let bins = spec.len();
-    for (k, c) in spec.iter_mut().enumerate().skip(1) {
-        let amp = (k as f64).powf(-0.5 * beta);
-        let phase = rng.random::<f64>() * std::f64::consts::TAU;
-        *c = Complex64::from_polar(amp, if k + 1 == bins { 0.0 } else { phase });
-    }
-    spec[bins - 1].im = 0.0;
-    let mut out = inv.make_output_vec();
-    if inv.process(&mut spec, &mut out).is_err() {
-        return vec![0.0; len];
-    }
-    let rms = (out.iter().map(|v| v * v).sum::<f64>() / len as f64).sqrt();
-    out.iter().map(|v| (v / rms.max(1e-300)) as f32).collect()
+    resound_synth::scrape::fractal_profile(len, beta, seed).map_or_else(
+        |_| vec![0.0; len],
+        |p| p.iter().map(|&v| v as f32).collect(),
+    )
 }
 
 /// Linear interpolation of the periodic `profile` at arc length `s` metres.

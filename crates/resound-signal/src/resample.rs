@@ -11,7 +11,7 @@ pub fn resample(x: &[f64], from_hz: u32, to_hz: u32) -> Result<Vec<f64>, String>
     if from_hz == 0 || to_hz == 0 {
         return Err("sample rates must be positive".into());
     }
-    if from_hz == to_hz {
+    if from_hz == to_hz || x.is_empty() {
         return Ok(x.to_vec());
     }
     let mut r = FftFixedIn::<f64>::new(from_hz as usize, to_hz as usize, 1024, 2, 1)
@@ -28,8 +28,11 @@ pub fn resample(x: &[f64], from_hz: u32, to_hz: u32) -> Result<Vec<f64>, String>
         pos += need;
     }
     // The rest, then zeros until the delayed output is complete.
-    let o = r.process_partial(Some(&[&x[pos..]]), None).map_err(err)?;
-    out.extend_from_slice(&o[0]);
+    // (rubato refuses an empty partial chunk: a length that is a multiple of the chunk has none.)
+    if pos < x.len() {
+        let o = r.process_partial(Some(&[&x[pos..]]), None).map_err(err)?;
+        out.extend_from_slice(&o[0]);
+    }
     while out.len() < want + delay {
         let o = r.process_partial::<&[f64]>(None, None).map_err(err)?;
         if o[0].is_empty() {
@@ -43,6 +46,18 @@ pub fn resample(x: &[f64], from_hz: u32, to_hz: u32) -> Result<Vec<f64>, String>
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn empty_signals_resample_to_empty() {
+        // A material whose residual is empty (a recording fully explained by its modes) used
+        // to fail here with rubato's "insufficient buffer size 0".
+        assert_eq!(super::resample(&[], 44_100, 48_000), Ok(Vec::new()));
+        // A whole number of rubato's 1024-sample chunks (a residual of 2 × 512-sample hops)
+        // failed the same way.
+        let x: Vec<f64> = (0..2048).map(|i| (0.01 * i as f64).sin()).collect();
+        let y = super::resample(&x, 44_100, 48_000).unwrap();
+        assert_eq!(y.len(), (2048.0f64 * 48_000.0 / 44_100.0).round() as usize);
+    }
+
     use super::*;
     use std::f64::consts::TAU;
 

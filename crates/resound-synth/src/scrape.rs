@@ -74,28 +74,8 @@ impl Surface {
         rms_m: f64,
         seed: u64,
     ) -> Result<Self, SynthError> {
-        let n = len.max(16).next_power_of_two();
-        let mut rng = SmallRng::seed_from_u64(seed);
-        let mut planner = RealFftPlanner::<f64>::new();
-        let inv = planner.plan_fft_inverse(n);
-        let mut spec = inv.make_input_vec();
-        let bins = spec.len();
-        for (k, c) in spec.iter_mut().enumerate().skip(1) {
-            let phase = if k + 1 == bins {
-                0.0
-            } else {
-                rng.random::<f64>() * std::f64::consts::TAU
-            };
-            *c = Complex64::from_polar((k as f64).powf(-0.5 * beta), phase);
-        }
-        let mut out = inv.make_output_vec();
-        inv.process(&mut spec, &mut out)
-            .map_err(|e| SynthError::Parameter(format!("fft: {e}")))?;
-        let rms = (out.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
-        Self::new(
-            out.iter().map(|v| v / rms.max(1e-300) * rms_m).collect(),
-            spacing_m,
-        )
+        let out = fractal_profile(len.max(16).next_power_of_two(), beta, seed)?;
+        Self::new(out.iter().map(|v| v * rms_m).collect(), spacing_m)
     }
 
     /// One-dimensional quilting of `profile`: `len` samples from random segments of
@@ -333,6 +313,34 @@ pub fn scrape(
             *o += v;
         }
     }
+    Ok(out)
+}
+
+/// The one 1/f^β profile generator: `len` samples (a power of two) of periodic noise with
+/// power ∝ k^(−β) at spatial frequency bin k and random phases (seeded), unit RMS. Scraping
+/// surfaces scale it to their RMS height; scenes read it as their sliding/rolling texture.
+///
+/// # Errors
+/// [`SynthError::Parameter`] when the inverse FFT fails (a length that is not a power of two).
+pub fn fractal_profile(len: usize, beta: f64, seed: u64) -> Result<Vec<f64>, SynthError> {
+    let mut rng = SmallRng::seed_from_u64(seed);
+    let mut planner = RealFftPlanner::<f64>::new();
+    let inv = planner.plan_fft_inverse(len);
+    let mut spec = inv.make_input_vec();
+    let bins = spec.len();
+    for (k, c) in spec.iter_mut().enumerate().skip(1) {
+        let phase = if k + 1 == bins {
+            0.0
+        } else {
+            rng.random::<f64>() * std::f64::consts::TAU
+        };
+        *c = Complex64::from_polar((k as f64).powf(-0.5 * beta), phase);
+    }
+    let mut out = inv.make_output_vec();
+    inv.process(&mut spec, &mut out)
+        .map_err(|e| SynthError::Parameter(format!("fft: {e}")))?;
+    let rms = (out.iter().map(|v| v * v).sum::<f64>() / len as f64).sqrt();
+    out.iter_mut().for_each(|v| *v /= rms.max(1e-300));
     Ok(out)
 }
 

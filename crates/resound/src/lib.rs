@@ -53,6 +53,7 @@ pub mod material;
 pub mod object;
 pub mod recording;
 pub mod scene;
+pub mod scrape;
 pub mod strike;
 
 pub use error::{Error, Result};

@@ -59,7 +59,7 @@ pub fn load_recording(path: &Path, params: &RecordingParams) -> Result<Recording
 /// an error (with a hint when the file holds several strikes).
 ///
 /// # Errors
-/// As [`load_recording`] and [`analyze`]; no modes found.
+/// As [`load_recording`] and [`analyze()`]; no modes found.
 pub fn analyze_file(
     path: &Path,
     recording: &RecordingParams,

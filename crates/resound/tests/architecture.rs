@@ -26,11 +26,21 @@ const ORDER: &[&str] = &[
 fn workspace_edges() -> BTreeMap<String, BTreeSet<String>> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let out = std::process::Command::new(cargo)
-        .args(["metadata", "--format-version", "1", "--no-deps", "--offline"])
+        .args([
+            "metadata",
+            "--format-version",
+            "1",
+            "--no-deps",
+            "--offline",
+        ])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .expect("cargo metadata runs");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let names: BTreeSet<String> = v["packages"]
         .as_array()
@@ -113,6 +123,9 @@ fn numeric_crates_do_no_io() {
         "resound-estimate",
         "resound-synth",
     ] {
-        assert!(!edges[n].contains("resound-io"), "{n} depends on resound-io");
+        assert!(
+            !edges[n].contains("resound-io"),
+            "{n} depends on resound-io"
+        );
     }
 }
