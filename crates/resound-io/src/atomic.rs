@@ -5,7 +5,9 @@ use std::io::Write;
 use std::path::Path;
 
 /// Writes `path` by calling `f` on a buffered temporary file in the same directory, then renames
-/// it over `path`. On any error the temporary file is removed and `path` is untouched.
+/// it over `path`. On any error the temporary file is removed and `path` is untouched. The file
+/// gets the usual permissions of a new file (0666 less the process umask, like `File::create`),
+/// not the temporary file's private 0600.
 ///
 /// # Errors
 /// [`crate::IoError::Io`] from creating, writing or renaming.
@@ -17,10 +19,15 @@ pub fn write_atomic(
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let tmp = tempfile::Builder::new()
-        .prefix(".resound-tmp-")
-        .tempfile_in(dir)
-        .map_err(|e| io_err(path, e))?;
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".resound-tmp-");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // The mode given to open(2), which the kernel masks with the umask.
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let tmp = builder.tempfile_in(dir).map_err(|e| io_err(path, e))?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file());
         f(&mut w).map_err(|e| io_err(path, e))?;
@@ -28,4 +35,26 @@ pub fn write_atomic(
     }
     tmp.persist(path).map_err(|e| io_err(path, e.error))?;
     Ok(())
+}
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::write_atomic;
+    use std::os::unix::fs::PermissionsExt;
+
+    #[test]
+    fn outputs_get_the_permissions_of_a_new_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let reference = dir.path().join("plain");
+        std::fs::File::create(&reference).unwrap();
+        let atomic = dir.path().join("atomic");
+        write_atomic(&atomic, |w| w.write_all(b"x")).unwrap();
+        let mode = |p: &std::path::Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&atomic), mode(&reference));
+        assert_ne!(
+            mode(&atomic),
+            0o600,
+            "the umask would have to be 0177 for this"
+        );
+    }
 }
