@@ -32,9 +32,8 @@
 #![warn(missing_docs)]
 
 mod scene;
-mod texture;
 
-pub use scene::{simulate, ContactKind, Event, SceneOutput, SceneStats};
+pub use scene::{simulate, ContactKind, Event, Excitation, SceneOutput, SceneStats};
 
 use resound_synth::excitation::Elastic;
 

@@ -1,13 +1,15 @@
 //! The simulation loop: rapier steps, contact classification, excitation, rendering.
 
-use crate::texture::{at, fractal_profile};
 use crate::{BodySpec, SceneError, SceneParams, Shape};
 use rapier3d::parry::query::distance;
 use rapier3d::prelude::*;
 use resound_grains::player::GrainPlayer;
 use resound_grains::Contact;
-use resound_synth::bank::{BankMode, ModalBank};
+use resound_synth::bank::BankMode;
+use resound_synth::contact::{ContactForce, Profile, ROUGHNESS};
 use resound_synth::excitation::{ContactModel, Impact};
+use resound_synth::spatial::Spatializer;
+use resound_synth::{Engine, EngineParams, VoiceId};
 use serde::Serialize;
 use std::collections::HashMap;
 
@@ -17,12 +19,10 @@ const IMPACT_MIN_SPEED: f64 = 0.02;
 const SLIP_MIN_SPEED: f64 = 0.01;
 /// Speed below which a contact rests, m/s.
 const MOVE_MIN_SPEED: f64 = 0.02;
-/// Roughness: sliding force per unit normal force at 1 m/s and unit profile.
-const ROUGHNESS: f64 = 0.05;
 /// Force ring per body, samples.
 const FORCE_RING: usize = 1 << 14;
-/// Speed of sound, m/s.
-const SPEED_OF_SOUND: f64 = 343.0;
+/// Longest propagation delay, s (sources beyond 343 m are held there).
+const MAX_DELAY_S: f64 = 1.0;
 /// Continuous contacts are logged at most this often, s.
 const LOG_INTERVAL_S: f64 = 0.05;
 
@@ -85,23 +85,33 @@ pub struct SceneOutput {
     pub stats: SceneStats,
 }
 
-struct Voice {
-    bank: ModalBank,
-    modes: usize,
-    gains: Vec<f64>,
-    force: Vec<f32>,
-    head: usize,
-    /// Samples from `head` on that may hold force.
-    pending: usize,
+/// What the contact tracker sends the sound engine each step: one body excited at one point
+/// by a force profile (an impact's Hertz pulse, or a step of sliding, rolling or scraping).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Excitation {
+    /// Index of the excited body.
+    pub body: usize,
+    /// Contact point, world frame, m.
+    pub point: [f64; 3],
+    /// Contact normal (from the first body to the second), world frame.
+    pub normal: [f64; 3],
+    /// Kind of contact.
+    pub kind: ContactKind,
+    /// Force, N per sample (times `scale`).
+    pub force: Vec<f32>,
+    /// Scale applied to `force` (an impact: the solver impulse over the pulse's own).
+    pub scale: f64,
+    /// Samples after the start of the step at which the force begins.
+    pub delay: usize,
+    /// Time of the excitation, s.
+    pub time_s: f64,
 }
 
 #[derive(Default)]
 struct PairState {
-    path_m: f64,
-    lowpass: [f64; 2],
+    force: ContactForce,
     last_log_s: f64,
     last_kind: Option<ContactKind>,
-    offset_m: f64,
 }
 
 fn v3(a: [f64; 3]) -> Vector {
@@ -307,9 +317,25 @@ pub fn simulate(
         let (h, _) = world.insert(rb, collider(b, i)?);
         handles.push(h);
     }
-    let mut voices: Vec<Option<Voice>> = Vec::with_capacity(bodies.len());
-    for b in bodies {
-        voices.push(match &b.sound {
+    // One pinned engine voice per sounding body; the tracker's excitations go to it.
+    let max_block = ((fs / params.steps_per_s).ceil() as usize + 1).max(1);
+    let sounding = bodies.iter().filter(|b| b.sound.is_some()).count();
+    let mut engine = Engine::new(EngineParams {
+        sample_rate_hz: fs,
+        voices: sounding.max(1),
+        modes_per_voice: bodies
+            .iter()
+            .filter_map(|b| b.sound.as_ref().map(|s| s.modes.len()))
+            .max()
+            .unwrap_or(0)
+            .max(1),
+        force_capacity: FORCE_RING,
+        cull_level: 1e-7,
+        max_block,
+    })?;
+    let mut voice_of: Vec<Option<VoiceId>> = Vec::with_capacity(bodies.len());
+    for (i, b) in bodies.iter().enumerate() {
+        voice_of.push(match &b.sound {
             Some(s) => {
                 let modes: Vec<BankMode> = s
                     .modes
@@ -321,18 +347,15 @@ pub fn simulate(
                         gain: f64::from(s.gains[j]),
                     })
                     .collect();
-                Some(Voice {
-                    bank: ModalBank::new(fs, &modes, 1e-7)?,
-                    modes: s.modes.len(),
-                    gains: vec![0.0; s.modes.len()],
-                    force: vec![0.0; FORCE_RING],
-                    head: 0,
-                    pending: 0,
-                })
+                Some(engine.attach(&modes, i)?)
             }
             None => None,
         });
     }
+    let mut gains = vec![0.0f64; engine.params().modes_per_voice];
+    let mut spatializer =
+        Spatializer::new(fs, params.stereo, params.listener, MAX_DELAY_S, max_block)?;
+    let mut excitations: Vec<Excitation> = Vec::new();
     let mut players: Vec<Option<GrainPlayer>> = Vec::with_capacity(bodies.len());
     for b in bodies {
         players.push(match &b.grains {
@@ -349,7 +372,7 @@ pub fn simulate(
     }
     // Per body and step: the strongest continuous contact (kind, power W, speed m/s).
     let mut continuous: Vec<Option<(Contact, f64, f64)>> = vec![None; bodies.len()];
-    let profile = fractal_profile(1 << 17, 1.0, params.seed);
+    let profile = Profile::fractal(1 << 17, 1.0, params.seed);
     let total = (params.duration_s * fs).round() as usize;
     let n_channels = if params.stereo { 2 } else { 1 };
     let mut channels = vec![vec![0.0f32; total]; n_channels];
@@ -357,7 +380,7 @@ pub fn simulate(
     let mut stats = SceneStats::default();
     let mut active: HashMap<(u32, u32), PairState> = HashMap::new();
     let steps = (params.duration_s * params.steps_per_s).ceil() as usize;
-    let mut buf = Vec::new();
+    let mut buf = vec![0.0f32; max_block];
     let mut step_force = Vec::new();
     let radii: Vec<f64> = bodies.iter().map(|b| contact_radius(&b.shape)).collect();
     let mut last_progress = 0.0;
@@ -435,7 +458,9 @@ pub fn simulate(
                 Some(s) => (s, true),
                 None => (
                     PairState {
-                        offset_m: (key.0 as f64 * 7.31 + key.1 as f64 * 3.17) % 10.0,
+                        force: ContactForce::new(
+                            (key.0 as f64 * 7.31 + key.1 as f64 * 3.17) % 10.0,
+                        ),
                         ..PairState::default()
                     },
                     false,
@@ -507,17 +532,18 @@ pub fn simulate(
                                 p.impact(at_sample, impulse);
                             }
                         }
-                        excite_pair(
-                            &mut voices,
-                            bodies,
-                            [i1, i2],
-                            &world,
-                            &handles,
-                            point,
-                            &pulse,
-                            scale,
-                            at_sample,
-                        );
+                        for body in [i1, i2] {
+                            excitations.push(Excitation {
+                                body,
+                                point,
+                                normal: arr(normal),
+                                kind: ContactKind::Impact,
+                                force: pulse.clone(),
+                                scale,
+                                delay: at_sample,
+                                time_s: t_contact,
+                            });
+                        }
                     }
                     stats.impacts += 1;
                     events.push(Event {
@@ -568,32 +594,23 @@ pub fn simulate(
                 }
                 let texture = bodies[i1].surface.as_ref().or(bodies[i2].surface.as_ref());
                 if let (Some((ContactKind::Sliding, speed)), Some(surface)) = (kind, texture) {
-                    // Traer's scraping force along the textured profile, with one sample of
-                    // context on either side so steps join without clicks.
-                    let start = state.path_m + state.offset_m;
-                    let xs: Vec<f64> = (0..n + 2)
-                        .map(|j| start + speed * (j as f64 - 1.0) / fs)
-                        .collect();
+                    // Traer's scraping force along the textured profile.
                     let mu = 0.5 * (bodies[i1].friction + bodies[i2].friction);
-                    let p = resound_synth::scrape::ScrapeParams {
-                        probe_mass_kg: 1e-4,
-                        friction: mu * normal_force,
-                        gamma: 1.0,
-                        tip_width_m: 2e-4,
-                    };
-                    let f = resound_synth::scrape::scrape_force(surface, &xs, fs, &p);
-                    state.path_m += speed * n as f64 / fs;
-                    excite_pair(
-                        &mut voices,
-                        bodies,
-                        [i1, i2],
-                        &world,
-                        &handles,
-                        point,
-                        &f[1..=n],
-                        1.0,
-                        0,
-                    );
+                    let f = state
+                        .force
+                        .scraping(surface, normal_force, speed, mu, fs, n);
+                    for body in [i1, i2] {
+                        excitations.push(Excitation {
+                            body,
+                            point,
+                            normal: arr(normal),
+                            kind: ContactKind::Sliding,
+                            force: f.clone(),
+                            scale: 1.0,
+                            delay: 0,
+                            time_s: t_start,
+                        });
+                    }
                     stats.sliding_steps += 1;
                     let t = t_start + dt;
                     if state.last_kind != Some(ContactKind::Sliding)
@@ -613,45 +630,33 @@ pub fn simulate(
                 } else if let Some((kind, speed)) = kind {
                     step_force.clear();
                     step_force.resize(n, 0.0f32);
-                    let roller = if bodies[i1].fixed { i2 } else { i1 };
-                    let roll_radius = radii[roller];
-                    // Low-pass for rolling: one pole at 50 Hz + 300 Hz per m/s.
-                    let fc = 50.0 + 300.0 * speed;
-                    let a = (-std::f64::consts::TAU * fc / fs).exp();
-                    // The rolling body's rotation modulates the force (a few Hz): its phase is
-                    // interpolated across the step instead of a sine per sample.
-                    let rot0 = (state.path_m / roll_radius).sin();
-                    let rot1 = ((state.path_m + speed * n as f64 / fs) / roll_radius).sin();
-                    for (k, f) in step_force.iter_mut().enumerate() {
-                        state.path_m += speed / fs;
-                        let x = f64::from(at(&profile, state.path_m + state.offset_m));
-                        *f = match kind {
-                            ContactKind::Sliding => (ROUGHNESS * normal_force * speed * x) as f32,
-                            _ => {
-                                state.lowpass[0] = a * state.lowpass[0] + (1.0 - a) * x;
-                                state.lowpass[1] =
-                                    a * state.lowpass[1] + (1.0 - a) * state.lowpass[0];
-                                let rotation = rot0 + (rot1 - rot0) * k as f64 / n.max(1) as f64;
-                                (ROUGHNESS / 3.0
-                                    * normal_force
-                                    * speed
-                                    * 8.0
-                                    * state.lowpass[1]
-                                    * (1.0 + 0.5 * rotation)) as f32
-                            }
-                        };
+                    if kind == ContactKind::Sliding {
+                        state
+                            .force
+                            .sliding(&profile, normal_force, speed, fs, &mut step_force);
+                    } else {
+                        let roller = if bodies[i1].fixed { i2 } else { i1 };
+                        state.force.rolling(
+                            &profile,
+                            normal_force,
+                            speed,
+                            radii[roller],
+                            fs,
+                            &mut step_force,
+                        );
                     }
-                    excite_pair(
-                        &mut voices,
-                        bodies,
-                        [i1, i2],
-                        &world,
-                        &handles,
-                        point,
-                        &step_force,
-                        1.0,
-                        0,
-                    );
+                    for body in [i1, i2] {
+                        excitations.push(Excitation {
+                            body,
+                            point,
+                            normal: arr(normal),
+                            kind,
+                            force: step_force.clone(),
+                            scale: 1.0,
+                            delay: 0,
+                            time_s: t_start,
+                        });
+                    }
                     match kind {
                         ContactKind::Sliding => stats.sliding_steps += 1,
                         _ => stats.rolling_steps += 1,
@@ -677,48 +682,41 @@ pub fn simulate(
         }
         active = now_active;
         stats.physics_s += tp.elapsed().as_secs_f64();
-        // Render this step and place it at the listener.
+        // The engine takes this step's excitations in the order the tracker made them, renders
+        // every sounding body, and the spatializer places each at the listener.
         let ta = std::time::Instant::now();
-        let mut sounding = 0;
-        for (i, v) in voices.iter_mut().enumerate() {
-            let Some(v) = v else { continue };
-            if v.pending == 0 && v.bank.is_silent() {
-                v.head = (v.head + n) % FORCE_RING;
-                continue;
-            }
-            v.pending = v.pending.saturating_sub(n);
-            buf.clear();
-            buf.resize(n, 0.0f32);
-            let mut f = std::mem::take(&mut step_force);
-            f.clear();
-            for k in 0..n {
-                let idx = (v.head + k) % FORCE_RING;
-                f.push(v.force[idx]);
-                v.force[idx] = 0.0;
-            }
-            v.head = (v.head + n) % FORCE_RING;
-            v.bank.process(&f, &mut buf);
-            step_force = f;
-            if v.bank.is_silent() {
-                continue;
-            }
-            sounding += 1;
-            let pos = arr(world.bodies[handles[i]].translation());
-            place(&mut channels, &buf, s0, pos, params);
+        for e in excitations.drain(..) {
+            apply(
+                &mut engine,
+                &voice_of,
+                bodies,
+                &world,
+                &handles,
+                &mut gains,
+                &e,
+            );
         }
+        let mut sounding = 0;
+        engine.process_voices(n, &mut |body, offset, block| {
+            sounding += 1;
+            let pos = arr(world.bodies[handles[body]].translation());
+            spatializer.place(block, offset, pos);
+        });
         for (i, p) in players.iter_mut().enumerate() {
             let Some(p) = p else { continue };
             p.set_contact(continuous[i]);
             if p.is_silent() {
                 continue;
             }
-            buf.clear();
-            buf.resize(n, 0.0f32);
-            p.process(&mut buf);
+            let block = &mut buf[..n];
+            block.fill(0.0);
+            p.process(block);
             sounding += 1;
             let pos = arr(world.bodies[handles[i]].translation());
-            place(&mut channels, &buf, s0, pos, params);
+            spatializer.place(block, 0, pos);
         }
+        let mut outs: Vec<&mut [f32]> = channels.iter_mut().map(|c| &mut c[s0..s1]).collect();
+        spatializer.render(&mut outs);
         stats.max_voices = stats.max_voices.max(sounding);
         stats.audio_s += ta.elapsed().as_secs_f64();
         stats.steps += 1;
@@ -735,95 +733,28 @@ pub fn simulate(
     })
 }
 
-/// Mixes a source's block `buf` (starting at sample `s0`) at `pos` into the output: 1/r
-/// attenuation, propagation delay, equal-power pan.
-fn place(channels: &mut [Vec<f32>], buf: &[f32], s0: usize, pos: [f64; 3], params: &SceneParams) {
-    let fs = params.sample_rate_hz;
-    let listener = params.listener;
-    let total = channels.first().map_or(0, Vec::len);
-    let d = [
-        pos[0] - listener[0],
-        pos[1] - listener[1],
-        pos[2] - listener[2],
-    ];
-    let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    let g = 1.0 / r.max(0.1);
-    let delay = (r / SPEED_OF_SOUND * fs).round() as usize;
-    let gains: [f64; 2] = if params.stereo {
-        let p = (d[0] / r.max(1e-9)).clamp(-1.0, 1.0);
-        [g * (0.5 * (1.0 - p)).sqrt(), g * (0.5 * (1.0 + p)).sqrt()]
-    } else {
-        [g, 0.0]
-    };
-    let start = s0 + delay;
-    if start >= total {
-        return;
-    }
-    let end = (start + buf.len()).min(total);
-    for (c, ch) in channels.iter_mut().enumerate() {
-        let gc = gains[c] as f32;
-        for (o, &x) in ch[start..end].iter_mut().zip(buf) {
-            *o += x * gc;
-        }
-    }
-}
-
-/// [`excite`] on both bodies of a contact.
-fn excite_pair(
-    voices: &mut [Option<Voice>],
+/// Hands one excitation to the engine: the body's gains at the surface vertex nearest the
+/// contact point (in the body's frame after the step), then the force.
+fn apply(
+    engine: &mut Engine,
+    voice_of: &[Option<VoiceId>],
     bodies: &[BodySpec],
-    pair: [usize; 2],
     world: &PhysicsWorld,
     handles: &[RigidBodyHandle],
-    point: [f64; 3],
-    force: &[f32],
-    scale: f64,
-    at_sample: usize,
+    gains: &mut [f64],
+    e: &Excitation,
 ) {
-    for i in pair {
-        excite(
-            &mut voices[i],
-            bodies,
-            i,
-            world,
-            handles[i],
-            point,
-            force,
-            scale,
-            at_sample,
-        );
-    }
-}
-
-/// Adds `force × scale` to body `i`'s force ring from `at_sample` on, with the gains of the
-/// surface vertex nearest `point`.
-#[allow(clippy::too_many_arguments)]
-fn excite(
-    voice: &mut Option<Voice>,
-    bodies: &[BodySpec],
-    i: usize,
-    world: &PhysicsWorld,
-    handle: RigidBodyHandle,
-    point: [f64; 3],
-    force: &[f32],
-    scale: f64,
-    at_sample: usize,
-) {
-    let (Some(v), Some(sound)) = (voice.as_mut(), bodies[i].sound.as_ref()) else {
+    let (Some(id), Some(sound)) = (voice_of[e.body], bodies[e.body].sound.as_ref()) else {
         return;
     };
-    let local = arr(world.bodies[handle]
+    let local = arr(world.bodies[handles[e.body]]
         .position()
-        .inverse_transform_point(v3(point)));
+        .inverse_transform_point(v3(e.point)));
     let k = nearest_vertex(&sound.vertices, local);
-    for (j, g) in v.gains.iter_mut().enumerate() {
-        *g = f64::from(sound.gains[k * v.modes + j]);
+    let m = sound.modes.len();
+    for (j, g) in gains[..m].iter_mut().enumerate() {
+        *g = f64::from(sound.gains[k * m + j]);
     }
-    v.bank.set_gains(&v.gains);
-    let len = force.len().min(FORCE_RING.saturating_sub(at_sample));
-    for (n, &f) in force[..len].iter().enumerate() {
-        let idx = (v.head + at_sample + n) % FORCE_RING;
-        v.force[idx] += (f64::from(f) * scale) as f32;
-    }
-    v.pending = v.pending.max(at_sample + len);
+    engine.set_gains(id, &gains[..m]);
+    engine.excite_scaled(id, &e.force, e.scale, e.delay);
 }

@@ -29,6 +29,10 @@ struct Voice {
     importance: f32,
     generation: u64,
     busy: bool,
+    /// Attached for good ([`Engine::attach`]): never stolen, never freed when silent.
+    pinned: bool,
+    /// The caller's tag ([`Engine::process_voices`] hands it back with each block).
+    tag: usize,
 }
 
 /// Settings of [`Engine::new`].
@@ -44,6 +48,9 @@ pub struct EngineParams {
     pub force_capacity: usize,
     /// Modes quieter than this (output amplitude) with no force coming are culled.
     pub cull_level: f32,
+    /// Longest block [`Engine::process`] and [`Engine::process_voices`] render at once (longer
+    /// requests are split), samples: the scratch allocated up front.
+    pub max_block: usize,
 }
 
 impl Default for EngineParams {
@@ -54,6 +61,7 @@ impl Default for EngineParams {
             modes_per_voice: 256,
             force_capacity: 48_000,
             cull_level: 1e-6,
+            max_block: crate::MAX_BLOCK,
         }
     }
 }
@@ -63,6 +71,7 @@ impl Default for EngineParams {
 pub struct Engine {
     voices: Vec<Voice>,
     scratch: Vec<f32>,
+    out: Vec<f32>,
     generation: u64,
     params: EngineParams,
 }
@@ -79,6 +88,12 @@ impl Engine {
         if params.force_capacity == 0 {
             return Err(SynthError::Parameter("force capacity must be > 0".into()));
         }
+        if params.max_block == 0 || params.max_block > 1 << 20 {
+            return Err(SynthError::Parameter(format!(
+                "max block must be in 1..=1048576 samples, got {}",
+                params.max_block
+            )));
+        }
         // One by one: a clone would not keep the banks' capacity.
         let mut voices = Vec::with_capacity(params.voices);
         for _ in 0..params.voices {
@@ -94,11 +109,14 @@ impl Engine {
                 importance: 1.0,
                 generation: 0,
                 busy: false,
+                pinned: false,
+                tag: 0,
             });
         }
         Ok(Self {
             voices,
-            scratch: vec![0.0; crate::MAX_BLOCK],
+            scratch: vec![0.0; params.max_block],
+            out: vec![0.0; params.max_block],
             generation: 0,
             params,
         })
@@ -120,18 +138,47 @@ impl Engine {
         let slot = match self.voices.iter().position(|v| !v.busy) {
             Some(s) => s,
             None => {
-                let mut best = 0;
+                let mut best = None;
                 let mut lowest = f32::INFINITY;
-                for (i, v) in self.voices.iter().enumerate() {
+                for (i, v) in self.voices.iter().enumerate().filter(|(_, v)| !v.pinned) {
                     let p = v.bank.level() * v.importance;
-                    if p < lowest {
+                    if best.is_none() || p < lowest {
                         lowest = p;
-                        best = i;
+                        best = Some(i);
                     }
                 }
-                best
+                // ok_or_else: the error's String must not be built (allocated) on success.
+                best.ok_or_else(|| {
+                    SynthError::Parameter("every voice is attached; none can be stolen".into())
+                })?
             }
         };
+        self.start_in(slot, modes, importance, slot, false)
+    }
+
+    /// Attaches an object for good (a scene body): a free voice that is never stolen and never
+    /// freed when silent, so `excite` always reaches it. `tag` comes back with its blocks from
+    /// [`Engine::process_voices`].
+    ///
+    /// # Errors
+    /// No free voice; more modes than a voice holds.
+    pub fn attach(&mut self, modes: &[BankMode], tag: usize) -> Result<VoiceId, SynthError> {
+        let slot = self
+            .voices
+            .iter()
+            .position(|v| !v.busy)
+            .ok_or_else(|| SynthError::Parameter("no free voice to attach".into()))?;
+        self.start_in(slot, modes, 1.0, tag, true)
+    }
+
+    fn start_in(
+        &mut self,
+        slot: usize,
+        modes: &[BankMode],
+        importance: f32,
+        tag: usize,
+        pinned: bool,
+    ) -> Result<VoiceId, SynthError> {
         let v = &mut self.voices[slot];
         v.bank.configure(modes)?;
         v.head = 0;
@@ -141,6 +188,8 @@ impl Engine {
         self.generation += 1;
         v.generation = self.generation;
         v.busy = true;
+        v.pinned = pinned;
+        v.tag = tag;
         Ok(VoiceId {
             slot,
             generation: self.generation,
@@ -173,6 +222,24 @@ impl Engine {
         true
     }
 
+    /// Adds `force × scale` (N per sample; the product in f64) to voice `id` from `delay`
+    /// samples after the start of the next block on; what does not fit the force capacity is
+    /// cut off. Returns the samples scheduled (0 if the voice is gone).
+    pub fn excite_scaled(&mut self, id: VoiceId, force: &[f32], scale: f64, delay: usize) -> usize {
+        if !self.is_alive(id) {
+            return 0;
+        }
+        let v = &mut self.voices[id.slot];
+        let cap = v.force.len();
+        let len = force.len().min(cap.saturating_sub(delay));
+        for (n, &f) in force[..len].iter().enumerate() {
+            let idx = (v.head + delay + n) % cap;
+            v.force[idx] += (f64::from(f) * scale) as f32;
+        }
+        v.pending = v.pending.max(delay + len);
+        len
+    }
+
     /// Changes a voice's per-mode gains (a moving contact).
     pub fn set_gains(&mut self, id: VoiceId, gains: &[f64]) -> bool {
         if !self.is_alive(id) {
@@ -185,7 +252,8 @@ impl Engine {
     /// Renders the next block, adding into `out` (any length; internally in blocks of
     /// [`crate::MAX_BLOCK`]). Voices that have gone silent with no force pending are freed.
     pub fn process(&mut self, out: &mut [f32]) {
-        for block in out.chunks_mut(crate::MAX_BLOCK) {
+        let max_block = self.params.max_block;
+        for block in out.chunks_mut(max_block) {
             let n = block.len();
             for v in self.voices.iter_mut().filter(|v| v.busy) {
                 let cap = v.force.len();
@@ -202,6 +270,49 @@ impl Engine {
                     v.busy = false;
                 }
             }
+        }
+    }
+
+    /// Renders the next `n` samples voice by voice: each voice that sounds hands its block to
+    /// `each(tag, offset, block)` (`offset` within the `n` samples; blocks of at most
+    /// `max_block`), so the caller can place every source on its own (a spatializer). A voice
+    /// with nothing pending that is silent is skipped (its force clock still advances); a
+    /// voice that is silent after its block is not handed out. Unpinned voices that went
+    /// silent are freed. Never allocates.
+    pub fn process_voices(&mut self, n: usize, each: &mut dyn FnMut(usize, usize, &[f32])) {
+        let max_block = self.params.max_block;
+        let mut offset = 0;
+        while offset < n {
+            let len = (n - offset).min(max_block);
+            for v in self.voices.iter_mut().filter(|v| v.busy) {
+                let cap = v.force.len();
+                if v.pending == 0 && v.bank.is_silent() {
+                    v.head = (v.head + len) % cap;
+                    if !v.pinned {
+                        v.busy = false;
+                    }
+                    continue;
+                }
+                v.pending = v.pending.saturating_sub(len);
+                let x = &mut self.scratch[..len];
+                for (i, xi) in x.iter_mut().enumerate() {
+                    let k = (v.head + i) % cap;
+                    *xi = v.force[k];
+                    v.force[k] = 0.0;
+                }
+                v.head = (v.head + len) % cap;
+                let out = &mut self.out[..len];
+                out.fill(0.0);
+                v.bank.process(x, out);
+                if v.bank.is_silent() {
+                    if !v.pinned && v.pending == 0 {
+                        v.busy = false;
+                    }
+                    continue;
+                }
+                each(v.tag, offset, out);
+            }
+            offset += len;
         }
     }
 }

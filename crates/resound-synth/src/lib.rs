@@ -9,15 +9,19 @@
 //!   `process`.
 //! - [`excitation`]: impact force pulses (spring, Hertz, impulse).
 //! - [`render`]: offline rendering of one strike.
-//! - [`residual`]: the residual's computation, transfer and Griffin–Lim reconstruction.
+//! - [`residual`]: the residual's transfer (§6.2) and reconstruction.
+//! - [`contact`]: continuous contact forces (sliding, rolling, textured scraping) step by step.
+//! - [`spatial`]: placing sources at a listener (distance, delay, pan).
 #![warn(missing_docs)]
 
 pub mod bank;
+pub mod contact;
 pub mod engine;
 pub mod excitation;
 pub mod render;
 pub mod residual;
 pub mod scrape;
+pub mod spatial;
 
 pub use bank::{BankMode, ModalBank};
 pub use engine::{Engine, EngineParams, VoiceId};

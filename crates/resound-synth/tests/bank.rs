@@ -181,6 +181,7 @@ fn engine_process_does_not_allocate_and_steals_the_quietest_voice() {
         modes_per_voice: 64,
         force_capacity: 4800,
         cull_level: 1e-6,
+        ..Default::default()
     })
     .unwrap();
     let m = modes();
@@ -212,4 +213,45 @@ fn engine_process_does_not_allocate_and_steals_the_quietest_voice() {
     // A pulse longer than the force ring is refused, not truncated.
     let long = vec![1.0f32; 5000];
     assert!(!engine.excite(third, &long, 0));
+}
+
+#[test]
+fn attached_voices_stay_and_are_rendered_one_by_one_without_allocating() {
+    let mut engine = Engine::new(EngineParams {
+        voices: 2,
+        modes_per_voice: 64,
+        force_capacity: 4800,
+        max_block: 256,
+        ..Default::default()
+    })
+    .unwrap();
+    let m = modes();
+    let a = engine.attach(&m, 7).unwrap();
+    // Silent for a while: an attached voice is not freed, so the next contact still reaches it.
+    assert_no_alloc(|| engine.process_voices(1000, &mut |_, _, _| panic!("silent")));
+    assert!(engine.is_alive(a));
+    let pulse = vec![1.0f32; 8];
+    assert_eq!(engine.excite_scaled(a, &pulse, 2.0, 10), 8);
+    // Too long for the ring: cut off, not dropped.
+    assert_eq!(engine.excite_scaled(a, &vec![0.0; 6000], 1.0, 0), 4800);
+    let mut seen = Vec::with_capacity(8); // pushing must not allocate inside the check
+    let mut first = f32::NAN;
+    // 600 samples in blocks of at most 256: three blocks at offsets 0, 256, 512.
+    let mut calls = 0;
+    assert_no_alloc(|| {
+        engine.process_voices(600, &mut |tag, offset, block| {
+            calls += 1;
+            if calls == 1 {
+                first = block[11];
+            }
+            if calls <= 3 {
+                seen.push((tag, offset, block.len()));
+            }
+        })
+    });
+    assert_eq!(seen, vec![(7, 0, 256), (7, 256, 256), (7, 512, 88)]);
+    assert!(first.abs() > 0.0, "the scaled pulse sounds from sample 10 on");
+    // Every voice attached: starting another cannot steal one.
+    engine.attach(&m, 8).unwrap();
+    assert!(engine.start(&m, 1.0).is_err());
 }
