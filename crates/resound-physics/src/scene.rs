@@ -260,6 +260,294 @@ fn nearest_vertex(vertices: &[[f64; 3]], p: [f64; 3]) -> usize {
     best
 }
 
+/// What the contact tracker found in one physics step.
+struct StepContacts {
+    /// Forces for the sound engine, in the order they were found.
+    excitations: Vec<Excitation>,
+    /// The event log (kept for the whole run).
+    events: Vec<Event>,
+    /// Per body: the strongest continuous contact of the step (kind, power W, speed m/s).
+    continuous: Vec<Option<(Contact, f64, f64)>>,
+    /// Impacts for grain players: (body, samples into the step, impulse N·s).
+    grain_impacts: Vec<(usize, usize, f64)>,
+    /// Running figures.
+    stats: SceneStats,
+}
+
+/// Classifies rapier's contact pairs after each step — impacts (timed within the step, shaped
+/// by Hertz, carrying the solver impulse), sliding, rolling, resting — and turns them into
+/// [`Excitation`]s with the force models of `resound_synth::contact`.
+struct ContactTracker {
+    active: HashMap<(u32, u32), PairState>,
+    profile: Profile,
+    radii: Vec<f64>,
+    dt: f64,
+    fs: f64,
+    step_force: Vec<f32>,
+}
+
+impl ContactTracker {
+    /// Looks at the contacts after the step that began at `t_start` (sample `s0`, `n` samples
+    /// long), with `prev` the bodies' poses and velocities before it.
+    fn step(
+        &mut self,
+        world: &PhysicsWorld,
+        bodies: &[BodySpec],
+        handles: &[RigidBodyHandle],
+        prev: &[(Pose, Vector, Vector, Vector)],
+        t_start: f64,
+        s0: usize,
+        n: usize,
+        out: &mut StepContacts,
+    ) {
+        let (dt, fs) = (self.dt, self.fs);
+        out.continuous.iter_mut().for_each(|c| *c = None);
+        let mut now_active: HashMap<(u32, u32), PairState> = HashMap::new();
+        for pair in world.narrow_phase.contact_pairs() {
+            let PairContacts::Rigid(r) = &pair.contacts else {
+                continue;
+            };
+            let mut impulse = 0.0f64;
+            let mut point = [0.0f64; 3];
+            let mut normal = Vector::ZERO;
+            for m in r.solver_manifolds() {
+                for p in &m.points {
+                    let j = f64::from(p.data.impulse);
+                    if j > 0.0 {
+                        let c1 = &world.colliders[pair.collider1];
+                        let wp = arr(c1.position().transform_point(p.local_p1));
+                        for c in 0..3 {
+                            point[c] += j * wp[c];
+                        }
+                        impulse += j;
+                        normal = m.data.normal;
+                    }
+                }
+            }
+            if !(impulse > 0.0) {
+                continue;
+            }
+            for c in &mut point {
+                *c /= impulse;
+            }
+            let (c1, c2) = (
+                &world.colliders[pair.collider1],
+                &world.colliders[pair.collider2],
+            );
+            let (i1, i2) = (c1.user_data as usize, c2.user_data as usize);
+            let key = (
+                pair.collider1.into_raw_parts().0,
+                pair.collider2.into_raw_parts().0,
+            );
+            let wp = v3(point);
+            let vel_at = |i: usize, post: bool| -> Vector {
+                if bodies[i].fixed {
+                    return Vector::ZERO;
+                }
+                if post {
+                    world.bodies[handles[i]].velocity_at_point(wp)
+                } else {
+                    let (_, lv, av, com) = prev[i];
+                    lv + av.cross(wp - com)
+                }
+            };
+            let (mut state, was_active) = match self.active.remove(&key) {
+                Some(s) => (s, true),
+                None => (
+                    PairState {
+                        force: ContactForce::new(
+                            (key.0 as f64 * 7.31 + key.1 as f64 * 3.17) % 10.0,
+                        ),
+                        ..PairState::default()
+                    },
+                    false,
+                ),
+            };
+            let approach = f64::from((vel_at(i1, false) - vel_at(i2, false)).dot(normal));
+            let names = [bodies[i1].name.clone(), bodies[i2].name.clone()];
+            if !was_active {
+                state.last_kind = Some(ContactKind::Impact);
+                if approach > IMPACT_MIN_SPEED {
+                    // The instant of contact: the gap at the previous poses over the approach.
+                    let gap = distance(
+                        &(prev[i1].0 * c1.position_wrt_parent().copied().unwrap_or(Pose::IDENTITY)),
+                        c1.shape(),
+                        &(prev[i2].0 * c2.position_wrt_parent().copied().unwrap_or(Pose::IDENTITY)),
+                        c2.shape(),
+                    )
+                    .map_or(0.0, |d| f64::from(d.distance).max(0.0));
+                    let frac = (gap / (approach * dt)).clamp(0.0, 1.0);
+                    let t_contact = t_start + frac * dt;
+                    if let Some((pulse, scale, at_sample)) = hertz_pulse(
+                        world,
+                        bodies,
+                        handles,
+                        [self.radii[i1], self.radii[i2]],
+                        [i1, i2],
+                        approach,
+                        impulse,
+                        t_contact * fs - s0 as f64,
+                        fs,
+                    ) {
+                        for i in [i1, i2] {
+                            out.grain_impacts.push((i, at_sample, impulse));
+                        }
+                        for body in [i1, i2] {
+                            out.excitations.push(Excitation {
+                                body,
+                                point,
+                                normal: arr(normal),
+                                kind: ContactKind::Impact,
+                                force: pulse.clone(),
+                                scale,
+                                delay: at_sample,
+                                time_s: t_contact,
+                            });
+                        }
+                    }
+                    out.stats.impacts += 1;
+                    out.events.push(Event {
+                        time_s: t_contact,
+                        bodies: names.clone(),
+                        kind: ContactKind::Impact,
+                        force: impulse,
+                        speed_m_s: approach,
+                        point,
+                    });
+                }
+            } else {
+                // Persistent contact: sliding, rolling or resting.
+                let normal_force = impulse / dt;
+                let v_rel = vel_at(i1, true) - vel_at(i2, true);
+                let v_t = v_rel - normal * v_rel.dot(normal);
+                let slip = f64::from(v_t.length());
+                let speed_of = |i: usize| {
+                    if bodies[i].fixed {
+                        0.0
+                    } else {
+                        let v = world.bodies[handles[i]].linvel();
+                        f64::from((v - normal * v.dot(normal)).length())
+                    }
+                };
+                let moving = speed_of(i1).max(speed_of(i2));
+                let kind = if slip > SLIP_MIN_SPEED && slip > 0.1 * moving {
+                    Some((ContactKind::Sliding, slip))
+                } else if moving > MOVE_MIN_SPEED {
+                    Some((ContactKind::Rolling, moving))
+                } else {
+                    None
+                };
+                // Force amplitudes far below a micronewton are inaudible: no excitation.
+                let kind = kind.filter(|&(_, speed)| ROUGHNESS * normal_force * speed > 1e-6);
+                if let Some((k, speed)) = kind {
+                    let c = if k == ContactKind::Rolling {
+                        Contact::Rolling
+                    } else {
+                        Contact::Sliding
+                    };
+                    let power = normal_force * speed;
+                    for &i in &[i1, i2] {
+                        if out.continuous[i].is_none_or(|(_, p, _)| p < power) {
+                            out.continuous[i] = Some((c, power, speed));
+                        }
+                    }
+                }
+                let texture = bodies[i1].surface.as_ref().or(bodies[i2].surface.as_ref());
+                if let (Some((ContactKind::Sliding, speed)), Some(surface)) = (kind, texture) {
+                    // Traer's scraping force along the textured profile.
+                    let mu = 0.5 * (bodies[i1].friction + bodies[i2].friction);
+                    let f = state
+                        .force
+                        .scraping(surface, normal_force, speed, mu, fs, n);
+                    for body in [i1, i2] {
+                        out.excitations.push(Excitation {
+                            body,
+                            point,
+                            normal: arr(normal),
+                            kind: ContactKind::Sliding,
+                            force: f.clone(),
+                            scale: 1.0,
+                            delay: 0,
+                            time_s: t_start,
+                        });
+                    }
+                    out.stats.sliding_steps += 1;
+                    let t = t_start + dt;
+                    if state.last_kind != Some(ContactKind::Sliding)
+                        || t - state.last_log_s >= LOG_INTERVAL_S
+                    {
+                        out.events.push(Event {
+                            time_s: t,
+                            bodies: names.clone(),
+                            kind: ContactKind::Sliding,
+                            force: normal_force,
+                            speed_m_s: speed,
+                            point,
+                        });
+                        state.last_log_s = t;
+                    }
+                    state.last_kind = Some(ContactKind::Sliding);
+                } else if let Some((kind, speed)) = kind {
+                    self.step_force.clear();
+                    self.step_force.resize(n, 0.0f32);
+                    if kind == ContactKind::Sliding {
+                        state.force.sliding(
+                            &self.profile,
+                            normal_force,
+                            speed,
+                            fs,
+                            &mut self.step_force,
+                        );
+                    } else {
+                        let roller = if bodies[i1].fixed { i2 } else { i1 };
+                        state.force.rolling(
+                            &self.profile,
+                            normal_force,
+                            speed,
+                            self.radii[roller],
+                            fs,
+                            &mut self.step_force,
+                        );
+                    }
+                    for body in [i1, i2] {
+                        out.excitations.push(Excitation {
+                            body,
+                            point,
+                            normal: arr(normal),
+                            kind,
+                            force: self.step_force.clone(),
+                            scale: 1.0,
+                            delay: 0,
+                            time_s: t_start,
+                        });
+                    }
+                    match kind {
+                        ContactKind::Sliding => out.stats.sliding_steps += 1,
+                        _ => out.stats.rolling_steps += 1,
+                    }
+                    let t = t_start + dt;
+                    if state.last_kind != Some(kind) || t - state.last_log_s >= LOG_INTERVAL_S {
+                        out.events.push(Event {
+                            time_s: t,
+                            bodies: names.clone(),
+                            kind,
+                            force: normal_force,
+                            speed_m_s: speed,
+                            point,
+                        });
+                        state.last_log_s = t;
+                    }
+                    state.last_kind = Some(kind);
+                } else {
+                    state.last_kind = Some(ContactKind::Impact);
+                }
+            }
+            now_active.insert(key, state);
+        }
+        self.active = now_active;
+    }
+}
+
 /// Runs the scene. `progress` gets the simulated fraction now and then.
 pub fn simulate(
     bodies: &[BodySpec],
@@ -355,7 +643,6 @@ pub fn simulate(
     let mut gains = vec![0.0f64; engine.params().modes_per_voice];
     let mut spatializer =
         Spatializer::new(fs, params.stereo, params.listener, MAX_DELAY_S, max_block)?;
-    let mut excitations: Vec<Excitation> = Vec::new();
     let mut players: Vec<Option<GrainPlayer>> = Vec::with_capacity(bodies.len());
     for b in bodies {
         players.push(match &b.grains {
@@ -370,19 +657,26 @@ pub fn simulate(
             None => None,
         });
     }
-    // Per body and step: the strongest continuous contact (kind, power W, speed m/s).
-    let mut continuous: Vec<Option<(Contact, f64, f64)>> = vec![None; bodies.len()];
-    let profile = Profile::fractal(1 << 17, 1.0, params.seed);
+    let mut tracker = ContactTracker {
+        active: HashMap::new(),
+        profile: Profile::fractal(1 << 17, 1.0, params.seed),
+        radii: bodies.iter().map(|b| contact_radius(&b.shape)).collect(),
+        dt,
+        fs,
+        step_force: Vec::new(),
+    };
+    let mut out = StepContacts {
+        excitations: Vec::new(),
+        events: Vec::new(),
+        continuous: vec![None; bodies.len()],
+        grain_impacts: Vec::new(),
+        stats: SceneStats::default(),
+    };
     let total = (params.duration_s * fs).round() as usize;
     let n_channels = if params.stereo { 2 } else { 1 };
     let mut channels = vec![vec![0.0f32; total]; n_channels];
-    let mut events = Vec::new();
-    let mut stats = SceneStats::default();
-    let mut active: HashMap<(u32, u32), PairState> = HashMap::new();
     let steps = (params.duration_s * params.steps_per_s).ceil() as usize;
     let mut buf = vec![0.0f32; max_block];
-    let mut step_force = Vec::new();
-    let radii: Vec<f64> = bodies.iter().map(|b| contact_radius(&b.shape)).collect();
     let mut last_progress = 0.0;
     for step in 0..steps {
         let t_start = step as f64 * dt;
@@ -404,288 +698,19 @@ pub fn simulate(
             })
             .collect();
         world.step();
-        continuous.iter_mut().for_each(|c| *c = None);
-        let mut now_active: HashMap<(u32, u32), PairState> = HashMap::new();
-        for pair in world.narrow_phase.contact_pairs() {
-            let PairContacts::Rigid(r) = &pair.contacts else {
-                continue;
-            };
-            let mut impulse = 0.0f64;
-            let mut point = [0.0f64; 3];
-            let mut normal = Vector::ZERO;
-            for m in r.solver_manifolds() {
-                for p in &m.points {
-                    let j = f64::from(p.data.impulse);
-                    if j > 0.0 {
-                        let c1 = &world.colliders[pair.collider1];
-                        let wp = arr(c1.position().transform_point(p.local_p1));
-                        for c in 0..3 {
-                            point[c] += j * wp[c];
-                        }
-                        impulse += j;
-                        normal = m.data.normal;
-                    }
-                }
+        out.excitations.clear();
+        out.grain_impacts.clear();
+        tracker.step(&world, bodies, &handles, &prev, t_start, s0, n, &mut out);
+        for &(i, at_sample, impulse) in &out.grain_impacts {
+            if let Some(p) = players[i].as_mut() {
+                p.impact(at_sample, impulse);
             }
-            if !(impulse > 0.0) {
-                continue;
-            }
-            for c in &mut point {
-                *c /= impulse;
-            }
-            let (c1, c2) = (
-                &world.colliders[pair.collider1],
-                &world.colliders[pair.collider2],
-            );
-            let (i1, i2) = (c1.user_data as usize, c2.user_data as usize);
-            let key = (
-                pair.collider1.into_raw_parts().0,
-                pair.collider2.into_raw_parts().0,
-            );
-            let wp = v3(point);
-            let vel_at = |i: usize, post: bool| -> Vector {
-                if bodies[i].fixed {
-                    return Vector::ZERO;
-                }
-                if post {
-                    world.bodies[handles[i]].velocity_at_point(wp)
-                } else {
-                    let (_, lv, av, com) = prev[i];
-                    lv + av.cross(wp - com)
-                }
-            };
-            let (mut state, was_active) = match active.remove(&key) {
-                Some(s) => (s, true),
-                None => (
-                    PairState {
-                        force: ContactForce::new(
-                            (key.0 as f64 * 7.31 + key.1 as f64 * 3.17) % 10.0,
-                        ),
-                        ..PairState::default()
-                    },
-                    false,
-                ),
-            };
-            let approach = f64::from((vel_at(i1, false) - vel_at(i2, false)).dot(normal));
-            let names = [bodies[i1].name.clone(), bodies[i2].name.clone()];
-            if !was_active {
-                state.last_kind = Some(ContactKind::Impact);
-                if approach > IMPACT_MIN_SPEED {
-                    // The instant of contact: the gap at the previous poses over the approach.
-                    let gap = distance(
-                        &(prev[i1].0 * c1.position_wrt_parent().copied().unwrap_or(Pose::IDENTITY)),
-                        c1.shape(),
-                        &(prev[i2].0 * c2.position_wrt_parent().copied().unwrap_or(Pose::IDENTITY)),
-                        c2.shape(),
-                    )
-                    .map_or(0.0, |d| f64::from(d.distance).max(0.0));
-                    let frac = (gap / (approach * dt)).clamp(0.0, 1.0);
-                    let t_contact = t_start + frac * dt;
-                    let mass = |i: usize| {
-                        if bodies[i].fixed {
-                            f64::INFINITY
-                        } else {
-                            f64::from(world.bodies[handles[i]].mass())
-                        }
-                    };
-                    let (m1, m2) = (mass(i1), mass(i2));
-                    let m_eff = if m1.is_infinite() {
-                        m2
-                    } else if m2.is_infinite() {
-                        m1
-                    } else {
-                        m1 * m2 / (m1 + m2)
-                    };
-                    let elastic = |i: usize| {
-                        bodies[i].sound.as_ref().map_or(
-                            resound_synth::excitation::Elastic {
-                                youngs_modulus: 1e9,
-                                poisson_ratio: 0.3,
-                            },
-                            |s| s.elastic,
-                        )
-                    };
-                    let imp = Impact {
-                        impactor_mass_kg: m_eff.max(1e-9),
-                        impactor_radius_m: radii[i1].min(radii[i2]),
-                        impactor: elastic(i1),
-                        object: elastic(i2),
-                        object_mass_kg: None,
-                        speed_m_s: approach,
-                    };
-                    let sample = t_contact * fs;
-                    let first = sample.floor();
-                    let offset = (sample - first) / fs;
-                    if let Ok(pulse) =
-                        imp.force_pulse(ContactModel::Hertz, fs, offset.min(0.999_999 / fs))
-                    {
-                        // Rapier's impulse (restitution included) with Hertz's shape.
-                        let j_pulse: f64 = pulse.iter().map(|&f| f64::from(f)).sum::<f64>() / fs;
-                        let scale = if j_pulse > 0.0 {
-                            impulse / j_pulse
-                        } else {
-                            0.0
-                        };
-                        let at_sample = (first as usize).saturating_sub(s0);
-                        for &i in &[i1, i2] {
-                            if let Some(p) = players[i].as_mut() {
-                                p.impact(at_sample, impulse);
-                            }
-                        }
-                        for body in [i1, i2] {
-                            excitations.push(Excitation {
-                                body,
-                                point,
-                                normal: arr(normal),
-                                kind: ContactKind::Impact,
-                                force: pulse.clone(),
-                                scale,
-                                delay: at_sample,
-                                time_s: t_contact,
-                            });
-                        }
-                    }
-                    stats.impacts += 1;
-                    events.push(Event {
-                        time_s: t_contact,
-                        bodies: names.clone(),
-                        kind: ContactKind::Impact,
-                        force: impulse,
-                        speed_m_s: approach,
-                        point,
-                    });
-                }
-            } else {
-                // Persistent contact: sliding, rolling or resting.
-                let normal_force = impulse / dt;
-                let v_rel = vel_at(i1, true) - vel_at(i2, true);
-                let v_t = v_rel - normal * v_rel.dot(normal);
-                let slip = f64::from(v_t.length());
-                let speed_of = |i: usize| {
-                    if bodies[i].fixed {
-                        0.0
-                    } else {
-                        let v = world.bodies[handles[i]].linvel();
-                        f64::from((v - normal * v.dot(normal)).length())
-                    }
-                };
-                let moving = speed_of(i1).max(speed_of(i2));
-                let kind = if slip > SLIP_MIN_SPEED && slip > 0.1 * moving {
-                    Some((ContactKind::Sliding, slip))
-                } else if moving > MOVE_MIN_SPEED {
-                    Some((ContactKind::Rolling, moving))
-                } else {
-                    None
-                };
-                // Force amplitudes far below a micronewton are inaudible: no excitation.
-                let kind = kind.filter(|&(_, speed)| ROUGHNESS * normal_force * speed > 1e-6);
-                if let Some((k, speed)) = kind {
-                    let c = if k == ContactKind::Rolling {
-                        Contact::Rolling
-                    } else {
-                        Contact::Sliding
-                    };
-                    let power = normal_force * speed;
-                    for &i in &[i1, i2] {
-                        if continuous[i].is_none_or(|(_, p, _)| p < power) {
-                            continuous[i] = Some((c, power, speed));
-                        }
-                    }
-                }
-                let texture = bodies[i1].surface.as_ref().or(bodies[i2].surface.as_ref());
-                if let (Some((ContactKind::Sliding, speed)), Some(surface)) = (kind, texture) {
-                    // Traer's scraping force along the textured profile.
-                    let mu = 0.5 * (bodies[i1].friction + bodies[i2].friction);
-                    let f = state
-                        .force
-                        .scraping(surface, normal_force, speed, mu, fs, n);
-                    for body in [i1, i2] {
-                        excitations.push(Excitation {
-                            body,
-                            point,
-                            normal: arr(normal),
-                            kind: ContactKind::Sliding,
-                            force: f.clone(),
-                            scale: 1.0,
-                            delay: 0,
-                            time_s: t_start,
-                        });
-                    }
-                    stats.sliding_steps += 1;
-                    let t = t_start + dt;
-                    if state.last_kind != Some(ContactKind::Sliding)
-                        || t - state.last_log_s >= LOG_INTERVAL_S
-                    {
-                        events.push(Event {
-                            time_s: t,
-                            bodies: names.clone(),
-                            kind: ContactKind::Sliding,
-                            force: normal_force,
-                            speed_m_s: speed,
-                            point,
-                        });
-                        state.last_log_s = t;
-                    }
-                    state.last_kind = Some(ContactKind::Sliding);
-                } else if let Some((kind, speed)) = kind {
-                    step_force.clear();
-                    step_force.resize(n, 0.0f32);
-                    if kind == ContactKind::Sliding {
-                        state
-                            .force
-                            .sliding(&profile, normal_force, speed, fs, &mut step_force);
-                    } else {
-                        let roller = if bodies[i1].fixed { i2 } else { i1 };
-                        state.force.rolling(
-                            &profile,
-                            normal_force,
-                            speed,
-                            radii[roller],
-                            fs,
-                            &mut step_force,
-                        );
-                    }
-                    for body in [i1, i2] {
-                        excitations.push(Excitation {
-                            body,
-                            point,
-                            normal: arr(normal),
-                            kind,
-                            force: step_force.clone(),
-                            scale: 1.0,
-                            delay: 0,
-                            time_s: t_start,
-                        });
-                    }
-                    match kind {
-                        ContactKind::Sliding => stats.sliding_steps += 1,
-                        _ => stats.rolling_steps += 1,
-                    }
-                    let t = t_start + dt;
-                    if state.last_kind != Some(kind) || t - state.last_log_s >= LOG_INTERVAL_S {
-                        events.push(Event {
-                            time_s: t,
-                            bodies: names.clone(),
-                            kind,
-                            force: normal_force,
-                            speed_m_s: speed,
-                            point,
-                        });
-                        state.last_log_s = t;
-                    }
-                    state.last_kind = Some(kind);
-                } else {
-                    state.last_kind = Some(ContactKind::Impact);
-                }
-            }
-            now_active.insert(key, state);
         }
-        active = now_active;
-        stats.physics_s += tp.elapsed().as_secs_f64();
+        out.stats.physics_s += tp.elapsed().as_secs_f64();
         // The engine takes this step's excitations in the order the tracker made them, renders
         // every sounding body, and the spatializer places each at the listener.
         let ta = std::time::Instant::now();
-        for e in excitations.drain(..) {
+        for e in &out.excitations {
             apply(
                 &mut engine,
                 &voice_of,
@@ -693,7 +718,7 @@ pub fn simulate(
                 &world,
                 &handles,
                 &mut gains,
-                &e,
+                e,
             );
         }
         let mut sounding = 0;
@@ -704,7 +729,7 @@ pub fn simulate(
         });
         for (i, p) in players.iter_mut().enumerate() {
             let Some(p) = p else { continue };
-            p.set_contact(continuous[i]);
+            p.set_contact(out.continuous[i]);
             if p.is_silent() {
                 continue;
             }
@@ -717,9 +742,9 @@ pub fn simulate(
         }
         let mut outs: Vec<&mut [f32]> = channels.iter_mut().map(|c| &mut c[s0..s1]).collect();
         spatializer.render(&mut outs);
-        stats.max_voices = stats.max_voices.max(sounding);
-        stats.audio_s += ta.elapsed().as_secs_f64();
-        stats.steps += 1;
+        out.stats.max_voices = out.stats.max_voices.max(sounding);
+        out.stats.audio_s += ta.elapsed().as_secs_f64();
+        out.stats.steps += 1;
         let frac = (step + 1) as f64 / steps as f64;
         if frac - last_progress >= 0.01 {
             progress(frac);
@@ -728,9 +753,71 @@ pub fn simulate(
     }
     Ok(SceneOutput {
         channels,
-        events,
-        stats,
+        events: out.events,
+        stats: out.stats,
     })
+}
+
+/// The force pulse of an impact between bodies `pair` approaching at `approach` m/s: Hertz's
+/// shape for their materials, reduced mass and the smaller contact radius, scaled to carry
+/// rapier's solver `impulse` (restitution included), starting `at` samples (fractional) into
+/// the step. Returns the pulse, its scale and its first whole sample.
+fn hertz_pulse(
+    world: &PhysicsWorld,
+    bodies: &[BodySpec],
+    handles: &[RigidBodyHandle],
+    radii: [f64; 2],
+    pair: [usize; 2],
+    approach: f64,
+    impulse: f64,
+    at: f64,
+    fs: f64,
+) -> Option<(Vec<f32>, f64, usize)> {
+    let [i1, i2] = pair;
+    let mass = |i: usize| {
+        if bodies[i].fixed {
+            f64::INFINITY
+        } else {
+            f64::from(world.bodies[handles[i]].mass())
+        }
+    };
+    let (m1, m2) = (mass(i1), mass(i2));
+    let m_eff = if m1.is_infinite() {
+        m2
+    } else if m2.is_infinite() {
+        m1
+    } else {
+        m1 * m2 / (m1 + m2)
+    };
+    let elastic = |i: usize| {
+        bodies[i].sound.as_ref().map_or(
+            resound_synth::excitation::Elastic {
+                youngs_modulus: 1e9,
+                poisson_ratio: 0.3,
+            },
+            |s| s.elastic,
+        )
+    };
+    let imp = Impact {
+        impactor_mass_kg: m_eff.max(1e-9),
+        impactor_radius_m: radii[0].min(radii[1]),
+        impactor: elastic(i1),
+        object: elastic(i2),
+        object_mass_kg: None,
+        speed_m_s: approach,
+    };
+    let first = at.floor();
+    let offset = (at - first) / fs;
+    let pulse = imp
+        .force_pulse(ContactModel::Hertz, fs, offset.min(0.999_999 / fs))
+        .ok()?;
+    let j_pulse: f64 = pulse.iter().map(|&f| f64::from(f)).sum::<f64>() / fs;
+    let scale = if j_pulse > 0.0 {
+        impulse / j_pulse
+    } else {
+        0.0
+    };
+    Some((pulse, scale, first.max(0.0) as usize))
 }
 
 /// Hands one excitation to the engine: the body's gains at the surface vertex nearest the

@@ -250,7 +250,10 @@ fn attached_voices_stay_and_are_rendered_one_by_one_without_allocating() {
         })
     });
     assert_eq!(seen, vec![(7, 0, 256), (7, 256, 256), (7, 512, 88)]);
-    assert!(first.abs() > 0.0, "the scaled pulse sounds from sample 10 on");
+    assert!(
+        first.abs() > 0.0,
+        "the scaled pulse sounds from sample 10 on"
+    );
     // Every voice attached: starting another cannot steal one.
     engine.attach(&m, 8).unwrap();
     assert!(engine.start(&m, 1.0).is_err());
