@@ -3,13 +3,10 @@
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
-use resound::grain_files::{
-    load_recordings, recording_index, summary, DictionarySummary, KindRule,
-};
+use resound::grain_files::{analyze_to_file, load_recordings, recording_index, summary, KindRule};
 use resound::grains::quality::spectral_convergence_db;
 use resound::grains::resynth::{resynthesize, ResynthParams};
 use resound::grains::{AnalyzeParams, Contact, Stage};
-use serde::Serialize;
 use std::path::PathBuf;
 
 /// `resound grains …`.
@@ -125,14 +122,6 @@ fn progress_bar() -> ProgressBar {
     pb
 }
 
-#[derive(Serialize)]
-struct AnalyzeOutput<'a> {
-    #[serde(flatten)]
-    summary: &'a DictionarySummary,
-    file_bytes: u64,
-    analysis: &'a resound::grains::AnalyzeInfo,
-}
-
 /// Runs `grains`.
 pub fn run(c: GrainsCmd) -> Result<()> {
     match c {
@@ -151,25 +140,12 @@ pub fn run(c: GrainsCmd) -> Result<()> {
                 });
                 pb.set_position((f * 1000.0) as u64);
             };
-            let (dict, info) = resound::grains::analyze(&recs, fs, &params, &report)?;
+            let made = analyze_to_file(&recs, fs, &params, a.prune, &a.output, &report);
             pb.finish_and_clear();
-            let dict = match a.prune {
-                Some(c) if (0.0..1.0).contains(&c) && c > 0.0 => {
-                    resound::grains::prune::prune(&dict, c)
-                }
-                Some(c) => bail!("--prune must be a correlation in (0, 1), got {c}"),
-                None => dict,
-            };
-            let size = resound::io::grains_file::save(&a.output, &dict)?;
-            // Quality is measured on what was saved (16-bit grains).
-            let saved = resound::io::grains_file::load(&a.output)?;
-            let sum = summary(&saved, Some(&recs))?;
+            let made = made?;
+            let (sum, size) = (&made.summary, made.file_bytes);
             if a.json {
-                crate::util::print_json(&AnalyzeOutput {
-                    summary: &sum,
-                    file_bytes: size as u64,
-                    analysis: &info,
-                })?;
+                crate::util::print_json(&made)?;
             } else {
                 eprintln!(
                     "wrote {} ({} grains: {} impulsive, {} sinusoidal, {} transient; {} bytes, compression {:.2}:1)",

@@ -1,11 +1,10 @@
 //! `resound mesh …`.
 
 use crate::util::parse_list;
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use resound::fem::primitive;
-use resound::io::{load_mesh, save_surface, LoadedMesh};
-use serde_json::json;
+use resound::io::save_surface;
+use resound::mesh::{check_mesh, make_primitive, MeshReport, PrimitiveKind};
 use std::path::PathBuf;
 
 /// Mesh subcommands.
@@ -66,57 +65,24 @@ pub struct CheckArgs {
     pub json: bool,
 }
 
+impl From<Kind> for PrimitiveKind {
+    fn from(k: Kind) -> Self {
+        match k {
+            Kind::Bar => PrimitiveKind::Bar,
+            Kind::Box => PrimitiveKind::Box,
+            Kind::Plate => PrimitiveKind::Plate,
+            Kind::Cylinder => PrimitiveKind::Cylinder,
+            Kind::Sphere => PrimitiveKind::Sphere,
+            Kind::Bowl => PrimitiveKind::Bowl,
+        }
+    }
+}
+
 /// Runs a mesh subcommand.
 pub fn run(c: MeshCmd) -> Result<()> {
     match c {
         MeshCmd::Primitive(a) => {
-            let s = parse_list(&a.size)?;
-            let need = |n: &[usize]| -> Result<()> {
-                if !n.contains(&s.len()) {
-                    bail!(
-                        "{:?} takes {} sizes, got {}",
-                        a.kind,
-                        n.iter()
-                            .map(|x| x.to_string())
-                            .collect::<Vec<_>>()
-                            .join(" or "),
-                        s.len()
-                    );
-                }
-                Ok(())
-            };
-            if !(3..=4096).contains(&a.segments) {
-                bail!("--segments must be in 3..=4096");
-            }
-            let m = match a.kind {
-                Kind::Bar | Kind::Box => {
-                    need(&[3])?;
-                    primitive::bar([s[0], s[1], s[2]])
-                }
-                Kind::Plate => {
-                    need(&[3])?;
-                    primitive::plate(s[0], s[1], s[2])
-                }
-                Kind::Cylinder => {
-                    need(&[2])?;
-                    primitive::cylinder(s[0], s[1], a.segments)
-                }
-                Kind::Sphere => {
-                    need(&[1])?;
-                    primitive::sphere(s[0], a.segments)
-                }
-                Kind::Bowl => {
-                    need(&[2, 3])?;
-                    if s[1] >= s[0] {
-                        bail!(
-                            "bowl thickness {} must be smaller than its radius {}",
-                            s[1],
-                            s[0]
-                        );
-                    }
-                    primitive::bowl(s[0], s[1], *s.get(2).unwrap_or(&s[0]), a.segments)
-                }
-            };
+            let m = make_primitive(a.kind.into(), &parse_list(&a.size)?, a.segments)?;
             save_surface(&a.output, &m)
                 .with_context(|| format!("writing {}", a.output.display()))?;
             eprintln!(
@@ -126,59 +92,32 @@ pub fn run(c: MeshCmd) -> Result<()> {
                 m.triangles.len(),
                 m.signed_volume()
             );
-            Ok(())
         }
         MeshCmd::Check(a) => {
-            let m = load_mesh(&a.mesh, a.scale)?;
-            let s = match m {
-                LoadedMesh::Surface(s) => s,
-                LoadedMesh::Tets(t) => {
-                    let fem = resound::fem::discretize::discretize_tets(
-                        &t,
-                        &resound::core::Material::preset("steel")?,
-                        false,
-                    )?;
-                    let v = json!({"kind": "tets", "nodes": t.nodes.len(), "tets": t.tets.len(), "boundary_triangles": fem.surface.triangles.len(), "volume_m3": fem.surface.signed_volume(), "notes": fem.notes});
+            let r = check_mesh(&a.mesh, a.scale, a.max_hole_edges)?;
+            match (&r, a.json) {
+                (_, true) => crate::util::print_json(&r)?,
+                (
+                    MeshReport::Surface {
+                        vertices,
+                        triangles,
+                        bbox_min_m,
+                        bbox_max_m,
+                        volume_m3,
+                        repairs,
+                    },
+                    false,
+                ) => {
                     println!(
-                        "{}",
-                        if a.json {
-                            serde_json::to_string_pretty(&v)?
-                        } else {
-                            v.to_string()
-                        }
+                        "{vertices} vertices, {triangles} triangles; bbox {bbox_min_m:?} .. {bbox_max_m:?} m; closed volume {volume_m3:.4e} m^3"
                     );
-                    return Ok(());
+                    for l in repairs {
+                        println!("repair: {l}");
+                    }
                 }
-            };
-            let (lo, hi) = s.bbox();
-            let (r, report) = s
-                .repaired(a.max_hole_edges)
-                .context("the mesh cannot be used")?;
-            let v = json!({
-                "kind": "surface",
-                "vertices": s.vertices.len(),
-                "triangles": s.triangles.len(),
-                "bbox_min_m": lo,
-                "bbox_max_m": hi,
-                "volume_m3": r.signed_volume(),
-                "repairs": report.lines(),
-            });
-            if a.json {
-                println!("{}", serde_json::to_string_pretty(&v)?);
-            } else {
-                println!(
-                    "{} vertices, {} triangles; bbox {:?} .. {:?} m; closed volume {:.4e} m^3",
-                    s.vertices.len(),
-                    s.triangles.len(),
-                    lo,
-                    hi,
-                    r.signed_volume()
-                );
-                for l in report.lines() {
-                    println!("repair: {l}");
-                }
+                (MeshReport::Tets { .. }, false) => println!("{}", serde_json::to_string(&r)?),
             }
-            Ok(())
         }
     }
+    Ok(())
 }

@@ -6,7 +6,7 @@ use clap::Args;
 use resound::core::{Hit, Material, ModalModel};
 use resound::io::{model_file, mtx};
 use resound::modal::{ModalParams, ModalSolveInfo};
-use serde::Serialize;
+use resound::object::ModalReport;
 use std::path::PathBuf;
 
 /// Arguments of `resound modal`.
@@ -89,118 +89,6 @@ fn params(a: &ModalArgs) -> Result<ModalParams> {
     })
 }
 
-/// One mode in the JSON summary.
-#[derive(Serialize)]
-struct ModeRow {
-    freq_hz: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    gain: Option<f64>,
-}
-
-#[derive(Serialize)]
-struct MaterialRow<'a> {
-    name: &'a str,
-    youngs_modulus_pa: f64,
-    poisson_ratio: f64,
-    density_kg_m3: f64,
-}
-
-#[derive(Serialize)]
-struct HitRow {
-    point: [f64; 3],
-    normal: [f64; 3],
-    distance_m: f64,
-}
-
-#[derive(Serialize)]
-struct VoxelRow {
-    resolution: usize,
-    grid: [usize; 3],
-    voxel_size_m: [f64; 3],
-    fe_volume_m3: f64,
-    surface_volume_m3: f64,
-    repairs: Vec<String>,
-}
-
-/// The JSON of `modal` and `model`.
-#[derive(Serialize)]
-struct Summary<'a> {
-    dofs: usize,
-    elements: usize,
-    element: &'a str,
-    nnz: usize,
-    nnz_factor: usize,
-    assemble_s: f64,
-    factor_s: f64,
-    eigen_s: f64,
-    sturm_s: f64,
-    solve_s: f64,
-    operator_applications: usize,
-    max_rel_residual: f64,
-    sturm_count: Option<usize>,
-    rigid_modes_dropped: usize,
-    rigid_max_hz: f64,
-    material: MaterialRow<'a>,
-    surface_vertices: usize,
-    warnings: &'a [String],
-    #[serde(skip_serializing_if = "Option::is_none")]
-    voxel: Option<VoxelRow>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    hit: Option<HitRow>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    load_ms: Option<f64>,
-    modes: Vec<ModeRow>,
-}
-
-fn summary<'a>(model: &'a ModalModel, info: &'a ModalSolveInfo, hit: Option<&Hit>) -> Summary<'a> {
-    let e = &info.eigen;
-    Summary {
-        dofs: info.dofs,
-        elements: info.elements,
-        element: info.element,
-        nnz: e.nnz_k,
-        nnz_factor: e.nnz_l,
-        assemble_s: info.assemble_s,
-        factor_s: e.factor_s,
-        eigen_s: e.eigen_s,
-        sturm_s: e.sturm_s,
-        solve_s: info.total_s,
-        operator_applications: e.applications,
-        max_rel_residual: e.max_rel_residual,
-        sturm_count: e.sturm_count,
-        rigid_modes_dropped: info.rigid_modes,
-        rigid_max_hz: info.rigid_max_hz,
-        material: MaterialRow {
-            name: &model.material.name,
-            youngs_modulus_pa: model.material.youngs_modulus,
-            poisson_ratio: model.material.poisson_ratio,
-            density_kg_m3: model.material.density,
-        },
-        surface_vertices: model.n_vertices(),
-        warnings: &info.warnings,
-        voxel: info.discretize.as_ref().map(|r| VoxelRow {
-            resolution: r.resolution,
-            grid: r.grid_dims,
-            voxel_size_m: r.voxel_size_m,
-            fe_volume_m3: r.fe_volume_m3,
-            surface_volume_m3: r.surface_volume_m3,
-            repairs: r.repair.lines(),
-        }),
-        hit: hit.map(|h| HitRow {
-            point: h.at.point,
-            normal: h.at.normal,
-            distance_m: h.at.distance,
-        }),
-        load_ms: None,
-        modes: (0..model.n_modes())
-            .map(|j| ModeRow {
-                freq_hz: model.freq_hz(j),
-                gain: hit.map(|h| h.gains[j]),
-            })
-            .collect(),
-    }
-}
-
 fn print_modes(model: &ModalModel, hit: Option<&Hit>) {
     if let Some(h) = hit {
         let (p, n) = (h.at.point, h.at.normal);
@@ -267,7 +155,7 @@ pub fn run(a: ModalArgs) -> Result<()> {
     }
     let hit = hit.map(|h| model.hit(h)).transpose()?;
     if a.json {
-        return print_json(&summary(model, info, hit.as_ref()));
+        return print_json(&ModalReport::new(model, info, hit.as_ref()));
     }
     let e = &info.eigen;
     println!(
@@ -300,7 +188,7 @@ pub fn run_info(a: ModelInfoArgs) -> Result<()> {
             elements: model.fem_elements as usize,
             ..Default::default()
         };
-        let mut s = summary(&model, &info, hit.as_ref());
+        let mut s = ModalReport::new(&model, &info, hit.as_ref());
         s.load_ms = Some(load_ms);
         return print_json(&s);
     }

@@ -83,3 +83,74 @@ pub fn load_modes(path: &Path) -> Result<Vec<DampedMode>> {
     }
     Ok(f.modes)
 }
+
+/// Fits mode statistics (Traer 2019) of `material` to recordings of it (the first strike of
+/// each, high-passed at `highpass_hz`): `modes` modes per impulse response, plus the transient
+/// bands of what the modes leave (eq. 3). `each` hears of every analysed file and its mode
+/// count.
+///
+/// # Errors
+/// Unreadable or silent recordings; too few recordings or modes for the fit.
+pub fn fit_stats(
+    recordings: &[std::path::PathBuf],
+    material: &str,
+    modes: usize,
+    highpass_hz: Option<f64>,
+    each: &dyn Fn(&Path, usize),
+) -> Result<ModeStatistics> {
+    let mut all = Vec::new();
+    let mut transients = Vec::new();
+    let params = resound_signal::AnalyzeParams {
+        highpass_hz,
+        ..Default::default()
+    };
+    for p in recordings {
+        let (_, r) = crate::recording::analyze_file(p, &Default::default(), &params)?;
+        each(p, r.modes.len());
+        let fs = r.sample_rate_hz;
+        let modal = resound_core::damped::synthesize(&r.modes, fs, r.segment.len());
+        let residual: Vec<f64> = r.segment.iter().zip(&modal).map(|(a, b)| a - b).collect();
+        transients.push(resound_stats::transient::fit_transient(&residual, fs, 30));
+        all.push(r.modes);
+    }
+    let mut s = ModeStatistics::fit(material, &all, modes)?;
+    s.transient = resound_stats::TransientStats::fit(&transients).ok();
+    Ok(s)
+}
+
+/// Reads every PyImpact material table (`<material>_<size>_mm.json`) in `dir`: their names
+/// (`<material>_<size>`) and statistics, sorted by file name.
+///
+/// # Errors
+/// An unreadable directory or table; no tables.
+pub fn import_pyimpact(dir: &Path) -> Result<Vec<(String, ModeStatistics)>> {
+    let io = |e: std::io::Error| {
+        Error::from(resound_io::IoError::Io {
+            path: dir.to_path_buf(),
+            source: e,
+        })
+    };
+    let mut entries: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .map_err(io)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    entries.sort();
+    if entries.is_empty() {
+        return Err(invalid(format!(
+            "{}: no PyImpact tables (*.json)",
+            dir.display()
+        )));
+    }
+    let mut out = Vec::new();
+    for p in entries {
+        let stem = p
+            .file_stem()
+            .map_or(String::new(), |s| s.to_string_lossy().into_owned());
+        let name = stem.strip_suffix("_mm").unwrap_or(&stem).to_string();
+        let s = ModeStatistics::from_pyimpact_json(&name, &read_text(&p)?)
+            .map_err(|e| Error::from(e).at(&p))?;
+        out.push((name, s));
+    }
+    Ok(out)
+}

@@ -207,3 +207,47 @@ pub fn recording_index(d: &Dictionary, spec: &str) -> Result<usize> {
             ))
         })
 }
+
+/// What [`analyze_to_file`] made.
+#[derive(Clone, Debug, Serialize)]
+pub struct DictionaryFile {
+    /// The saved dictionary's figures (rebuilt from the saved 16-bit grains).
+    #[serde(flatten)]
+    pub summary: DictionarySummary,
+    /// Size of the file, bytes.
+    pub file_bytes: u64,
+    /// What the analysis did.
+    pub analysis: resound_grains::AnalyzeInfo,
+}
+
+/// Cuts `recordings` into grains and patterns, prunes them at correlation `prune` when given,
+/// saves the dictionary to `output`, and measures each rebuild from what was saved.
+///
+/// # Errors
+/// Unreadable recordings, a failed analysis, `prune` outside (0, 1), a failed write.
+pub fn analyze_to_file(
+    recordings: &[Recording],
+    sample_rate_hz: f64,
+    params: &resound_grains::AnalyzeParams,
+    prune: Option<f64>,
+    output: &Path,
+    progress: &(dyn Fn(resound_grains::Stage, f64) + Sync),
+) -> Result<DictionaryFile> {
+    let (dict, analysis) = resound_grains::analyze(recordings, sample_rate_hz, params, progress)?;
+    let dict = match prune {
+        Some(c) if c > 0.0 && c < 1.0 => resound_grains::prune::prune(&dict, c),
+        Some(c) => {
+            return Err(invalid(format!(
+                "--prune must be a correlation in (0, 1), got {c}"
+            )))
+        }
+        None => dict,
+    };
+    let size = resound_io::grains_file::save(output, &dict)?;
+    let saved = resound_io::grains_file::load(output)?;
+    Ok(DictionaryFile {
+        summary: summary(&saved, Some(recordings))?,
+        file_bytes: size as u64,
+        analysis,
+    })
+}

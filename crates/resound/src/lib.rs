@@ -50,6 +50,7 @@ mod error;
 pub mod files;
 pub mod grain_files;
 pub mod material;
+pub mod mesh;
 pub mod object;
 pub mod recording;
 pub mod scene;

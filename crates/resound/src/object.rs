@@ -1,9 +1,10 @@
 //! The struck object: a modal model from a saved `.rmodal` or from a mesh solved on the spot.
 
 use crate::error::{Error, Result};
-use resound_core::{Material, ModalModel};
+use resound_core::{Hit, Material, ModalModel};
 use resound_io::{load_mesh, model_file, LoadedMesh};
-use resound_modal::{Geometry, ModalBuilder, ModalParams, ModalSolution, Stage};
+use resound_modal::{Geometry, ModalBuilder, ModalParams, ModalSolution, ModalSolveInfo, Stage};
+use serde::Serialize;
 use std::path::Path;
 
 /// How to turn a mesh file into a modal model.
@@ -89,4 +90,157 @@ pub fn load_object(
         )));
     }
     Ok(model)
+}
+
+/// One mode in the JSON summary.
+/// One mode of a [`ModalReport`].
+#[derive(Serialize)]
+pub struct ModeRow {
+    /// Frequency, Hz.
+    pub freq_hz: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    /// Gain at the hit, m per N·s.
+    pub gain: Option<f64>,
+}
+
+/// The material of a [`ModalReport`].
+#[derive(Serialize)]
+pub struct MaterialRow<'a> {
+    /// Name.
+    pub name: &'a str,
+    /// Young's modulus, Pa.
+    pub youngs_modulus_pa: f64,
+    /// Poisson ratio.
+    pub poisson_ratio: f64,
+    density_kg_m3: f64,
+}
+
+/// The hit of a [`ModalReport`].
+#[derive(Serialize)]
+pub struct HitRow {
+    /// Surface point, m.
+    pub point: [f64; 3],
+    /// Unit outward normal.
+    pub normal: [f64; 3],
+    /// Distance from the query point, m.
+    pub distance_m: f64,
+}
+
+/// The voxel grid of a [`ModalReport`].
+#[derive(Serialize)]
+pub struct VoxelRow {
+    /// Voxels along the longest side.
+    pub resolution: usize,
+    /// Grid dimensions.
+    pub grid: [usize; 3],
+    /// Voxel size, m.
+    pub voxel_size_m: [f64; 3],
+    fe_volume_m3: f64,
+    surface_volume_m3: f64,
+    /// What repair did.
+    pub repairs: Vec<String>,
+}
+
+/// A modal model and its solve, as `resound modal --json` prints it.
+#[derive(Serialize)]
+pub struct ModalReport<'a> {
+    /// Degrees of freedom.
+    pub dofs: usize,
+    /// Finite elements.
+    pub elements: usize,
+    /// Element type.
+    pub element: &'a str,
+    /// Nonzeros of K.
+    pub nnz: usize,
+    /// Nonzeros of the Cholesky factor.
+    pub nnz_factor: usize,
+    /// Discretization and assembly, s.
+    pub assemble_s: f64,
+    /// Factorization, s.
+    pub factor_s: f64,
+    /// Lanczos, s.
+    pub eigen_s: f64,
+    /// Sturm count check, s.
+    pub sturm_s: f64,
+    /// Everything, s.
+    pub solve_s: f64,
+    /// Operator applications.
+    pub operator_applications: usize,
+    /// Largest true relative residual.
+    pub max_rel_residual: f64,
+    /// Modes certified below the cutoff by inertia.
+    pub sturm_count: Option<usize>,
+    /// Rigid-body modes dropped.
+    pub rigid_modes_dropped: usize,
+    /// Largest rigid-body |frequency|, Hz.
+    pub rigid_max_hz: f64,
+    /// The reference material.
+    pub material: MaterialRow<'a>,
+    /// Surface vertices.
+    pub surface_vertices: usize,
+    /// Things the user should know.
+    pub warnings: &'a [String],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    /// The voxel grid (surface meshes).
+    pub voxel: Option<VoxelRow>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    /// The hit point (with `--hit`).
+    pub hit: Option<HitRow>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    /// Load time of a saved model, ms.
+    pub load_ms: Option<f64>,
+    /// The modes, ascending.
+    pub modes: Vec<ModeRow>,
+}
+
+impl<'a> ModalReport<'a> {
+    /// The report of `model` solved as `info` says, with the gains at `hit`.
+    pub fn new(model: &'a ModalModel, info: &'a ModalSolveInfo, hit: Option<&Hit>) -> Self {
+        let e = &info.eigen;
+        ModalReport {
+            dofs: info.dofs,
+            elements: info.elements,
+            element: info.element,
+            nnz: e.nnz_k,
+            nnz_factor: e.nnz_l,
+            assemble_s: info.assemble_s,
+            factor_s: e.factor_s,
+            eigen_s: e.eigen_s,
+            sturm_s: e.sturm_s,
+            solve_s: info.total_s,
+            operator_applications: e.applications,
+            max_rel_residual: e.max_rel_residual,
+            sturm_count: e.sturm_count,
+            rigid_modes_dropped: info.rigid_modes,
+            rigid_max_hz: info.rigid_max_hz,
+            material: MaterialRow {
+                name: &model.material.name,
+                youngs_modulus_pa: model.material.youngs_modulus,
+                poisson_ratio: model.material.poisson_ratio,
+                density_kg_m3: model.material.density,
+            },
+            surface_vertices: model.n_vertices(),
+            warnings: &info.warnings,
+            voxel: info.discretize.as_ref().map(|r| VoxelRow {
+                resolution: r.resolution,
+                grid: r.grid_dims,
+                voxel_size_m: r.voxel_size_m,
+                fe_volume_m3: r.fe_volume_m3,
+                surface_volume_m3: r.surface_volume_m3,
+                repairs: r.repair.lines(),
+            }),
+            hit: hit.map(|h| HitRow {
+                point: h.at.point,
+                normal: h.at.normal,
+                distance_m: h.at.distance,
+            }),
+            load_ms: None,
+            modes: (0..model.n_modes())
+                .map(|j| ModeRow {
+                    freq_hz: model.freq_hz(j),
+                    gain: hit.map(|h| h.gains[j]),
+                })
+                .collect(),
+        }
+    }
 }

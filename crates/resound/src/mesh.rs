@@ -1,0 +1,147 @@
+//! Meshes for the user: primitives by name and sizes, and what a mesh file holds (and what
+//! repair would do to it).
+
+use crate::error::{invalid, Result};
+use resound_fem::{primitive, SurfaceMesh};
+use resound_io::{load_mesh, LoadedMesh};
+use serde::Serialize;
+use std::path::Path;
+
+/// The primitives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrimitiveKind {
+    /// A box centred at the origin: sizes x, y, z (m).
+    Bar,
+    /// The same as `Bar`.
+    Box,
+    /// A plate: length, width, thickness (m).
+    Plate,
+    /// A cylinder: radius, height (m).
+    Cylinder,
+    /// A sphere: radius (m).
+    Sphere,
+    /// A bowl: radius, wall thickness, [depth] (m).
+    Bowl,
+}
+
+/// A primitive surface from its sizes (m) and, for round shapes, `segments` around.
+///
+/// # Errors
+/// The wrong number of sizes, `segments` outside 3..=4096, a bowl thicker than its radius.
+pub fn make_primitive(kind: PrimitiveKind, s: &[f64], segments: usize) -> Result<SurfaceMesh> {
+    let need = |n: &[usize]| -> Result<()> {
+        if n.contains(&s.len()) {
+            return Ok(());
+        }
+        let counts: Vec<String> = n.iter().map(|x| x.to_string()).collect();
+        Err(invalid(format!(
+            "{kind:?} takes {} sizes, got {}",
+            counts.join(" or "),
+            s.len()
+        )))
+    };
+    if !(3..=4096).contains(&segments) {
+        return Err(invalid("--segments must be in 3..=4096"));
+    }
+    if s.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+        return Err(invalid("every size must be a positive number of metres"));
+    }
+    Ok(match kind {
+        PrimitiveKind::Bar | PrimitiveKind::Box => {
+            need(&[3])?;
+            primitive::bar([s[0], s[1], s[2]])
+        }
+        PrimitiveKind::Plate => {
+            need(&[3])?;
+            primitive::plate(s[0], s[1], s[2])
+        }
+        PrimitiveKind::Cylinder => {
+            need(&[2])?;
+            primitive::cylinder(s[0], s[1], segments)
+        }
+        PrimitiveKind::Sphere => {
+            need(&[1])?;
+            primitive::sphere(s[0], segments)
+        }
+        PrimitiveKind::Bowl => {
+            need(&[2, 3])?;
+            if s[1] >= s[0] {
+                return Err(invalid(format!(
+                    "bowl thickness {} must be smaller than its radius {}",
+                    s[1], s[0]
+                )));
+            }
+            primitive::bowl(s[0], s[1], *s.get(2).unwrap_or(&s[0]), segments)
+        }
+    })
+}
+
+/// What a mesh file holds.
+#[derive(Clone, Debug, Serialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum MeshReport {
+    /// A surface mesh and what repair does to it.
+    Surface {
+        /// Vertices as read.
+        vertices: usize,
+        /// Triangles as read.
+        triangles: usize,
+        /// Bounding box, m.
+        bbox_min_m: [f64; 3],
+        /// Bounding box, m.
+        bbox_max_m: [f64; 3],
+        /// Volume of the repaired surface, m³.
+        volume_m3: f64,
+        /// What repair did.
+        repairs: Vec<String>,
+    },
+    /// A tet mesh.
+    Tets {
+        /// Nodes.
+        nodes: usize,
+        /// Tetrahedra.
+        tets: usize,
+        /// Triangles of its boundary.
+        boundary_triangles: usize,
+        /// Volume, m³.
+        volume_m3: f64,
+        /// Notes of the discretization.
+        notes: Vec<String>,
+    },
+}
+
+/// Reads `path` (scaled by `scale`) and reports it, repairing surfaces (holes up to
+/// `max_hole_edges` filled).
+///
+/// # Errors
+/// Unreadable files; a surface that cannot be repaired; unusable tets.
+pub fn check_mesh(path: &Path, scale: f64, max_hole_edges: usize) -> Result<MeshReport> {
+    Ok(match load_mesh(path, scale)? {
+        LoadedMesh::Tets(t) => {
+            let steel = resound_core::Material::preset("steel")?;
+            let fem = resound_fem::discretize::discretize_tets(&t, &steel, false)
+                .map_err(|e| invalid(e.to_string()))?;
+            MeshReport::Tets {
+                nodes: t.nodes.len(),
+                tets: t.tets.len(),
+                boundary_triangles: fem.surface.triangles.len(),
+                volume_m3: fem.surface.signed_volume(),
+                notes: fem.notes,
+            }
+        }
+        LoadedMesh::Surface(s) => {
+            let (lo, hi) = s.bbox();
+            let (r, report) = s
+                .repaired(max_hole_edges)
+                .map_err(|e| invalid(format!("the mesh cannot be used: {e}")))?;
+            MeshReport::Surface {
+                vertices: s.vertices.len(),
+                triangles: s.triangles.len(),
+                bbox_min_m: lo,
+                bbox_max_m: hi,
+                volume_m3: r.signed_volume(),
+                repairs: report.lines(),
+            }
+        }
+    })
+}
