@@ -25,9 +25,17 @@
 //!   force × speed) and pitched by the speed. Grains follow each other at their own pace between
 //!   physics steps.
 //!
-//! **Output**: each body's bank is rendered per step and placed at the listener with 1/r
-//! distance attenuation (1 at 1 m, capped at 10 cm), the propagation delay r/343 m/s, and an
-//! equal-power pan from the source's direction (stereo).
+//! **Event flow**, per step: the contact tracker classifies rapier's contact pairs and emits
+//! typed [`Excitation`]s (body, contact point, normal, kind, force profile with its scale and
+//! start within the step); the force models are `resound_synth::contact` (sliding, rolling,
+//! scraping) and `resound_synth::excitation` (Hertz impacts). Each sounding body is a pinned
+//! voice of the same allocation-free `resound_synth::Engine` that live playback uses: an
+//! excitation sets the voice's gains at the surface vertex nearest the contact and schedules
+//! its force; `Engine::process_voices` renders every body, and `resound_synth::spatial`
+//! places it at the listener with 1/r distance attenuation (1 at 1 m, capped at 10 cm), the
+//! propagation delay r/343 m/s (at most 1 s) and an equal-power pan (stereo). The offline
+//! output is sample-identical to the earlier per-body renderer (the box and demo scenes, 24-bit
+//! WAV compared byte for byte).
 
 #![warn(missing_docs)]
 
