@@ -7,7 +7,7 @@ use clap::{Args, Subcommand};
 use resound::core::Material;
 use resound::fem::{discretize, primitive, SurfaceMesh};
 use resound::modal::{EigenMethod, Geometry, ModalBuilder, ModalParams};
-use serde_json::{json, Value};
+use serde::{Deserialize, Serialize};
 use std::process::Command;
 
 /// The bundled CC0 mesh (Keenan Crane's Spot), see assets/meshes/LICENSE-spot.md.
@@ -245,30 +245,88 @@ pub fn run_case(a: CaseArgs) -> Result<()> {
     .solve()?;
     let (model, info) = (solved.model, solved.info);
     let total_s = t0.elapsed().as_secs_f64();
-    let v = json!({
-        "mesh": a.mesh,
-        "method": if a.faer_lanczos { "faer-lanczos" } else { "block-lanczos" },
-        "material": material.name,
-        "target_dofs": a.target_dofs,
-        "resolution": resolution,
-        "dofs": info.dofs,
-        "elements": info.elements,
-        "nnz": info.eigen.nnz_k,
-        "nnz_factor": info.eigen.nnz_l,
-        "modes": model.n_modes(),
-        "assemble_s": assemble_s,
-        "factor_s": info.eigen.factor_s,
-        "eigen_s": info.eigen.eigen_s,
-        "sturm_s": info.eigen.sturm_s,
-        "total_s": total_s,
-        "operator_applications": info.eigen.applications,
-        "max_rel_residual": info.eigen.max_rel_residual,
-        "peak_rss_mib": peak_rss_mib(),
-        "f1_hz": model.freqs_hz().first(),
-        "f_last_hz": model.freqs_hz().last(),
-    });
-    println!("{v}");
+    let v = ModalCase {
+        mesh: a.mesh.clone(),
+        method: if a.faer_lanczos {
+            "faer-lanczos"
+        } else {
+            "block-lanczos"
+        }
+        .into(),
+        material: material.name.clone(),
+        target_dofs: a.target_dofs,
+        resolution,
+        dofs: info.dofs,
+        elements: info.elements,
+        nnz: info.eigen.nnz_k,
+        nnz_factor: info.eigen.nnz_l,
+        modes: model.n_modes(),
+        assemble_s,
+        factor_s: info.eigen.factor_s,
+        eigen_s: info.eigen.eigen_s,
+        sturm_s: info.eigen.sturm_s,
+        total_s,
+        operator_applications: info.eigen.applications,
+        max_rel_residual: info.eigen.max_rel_residual,
+        peak_rss_mib: peak_rss_mib(),
+        f1_hz: model.freqs_hz().first().copied(),
+        f_last_hz: model.freqs_hz().last().copied(),
+        baseline_faer_lanczos_total_s: None,
+        speedup_vs_faer_lanczos: None,
+    };
+    println!("{}", serde_json::to_string(&v)?);
     Ok(())
+}
+
+/// One modal case, as the child process prints it (one JSON line).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ModalCase {
+    /// bar or spot.
+    pub mesh: String,
+    /// block-lanczos or faer-lanczos.
+    pub method: String,
+    /// Material.
+    pub material: String,
+    /// DOFs aimed at.
+    pub target_dofs: usize,
+    /// Voxels along the longest side.
+    pub resolution: usize,
+    /// DOFs.
+    pub dofs: usize,
+    /// Elements.
+    pub elements: usize,
+    /// Nonzeros of K.
+    pub nnz: usize,
+    /// Nonzeros of the factor.
+    pub nnz_factor: usize,
+    /// Modes.
+    pub modes: usize,
+    /// Discretization and assembly, s.
+    pub assemble_s: f64,
+    /// Factorization, s.
+    pub factor_s: f64,
+    /// Lanczos, s.
+    pub eigen_s: f64,
+    /// Sturm check, s.
+    pub sturm_s: f64,
+    /// Everything, s.
+    pub total_s: f64,
+    /// Operator applications.
+    pub operator_applications: usize,
+    /// Largest true relative residual.
+    pub max_rel_residual: f64,
+    /// Peak resident memory of the case, MiB.
+    pub peak_rss_mib: Option<f64>,
+    /// First frequency, Hz.
+    pub f1_hz: Option<f64>,
+    /// Last frequency, Hz.
+    pub f_last_hz: Option<f64>,
+    /// The baseline's time on the same case, s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub baseline_faer_lanczos_total_s: Option<f64>,
+    /// Baseline time over ours.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub speedup_vs_faer_lanczos: Option<f64>,
 }
 
 fn run_child(
@@ -278,7 +336,7 @@ fn run_child(
     modes: usize,
     sturm: bool,
     faer: bool,
-) -> Result<Value> {
+) -> Result<ModalCase> {
     let mut cmd = Command::new(exe);
     cmd.args([
         "bench-case",
@@ -321,7 +379,7 @@ pub fn run(c: BenchCmd) -> Result<()> {
         bail!("--dofs: every count must be positive");
     }
     let dofs = a.dofs.clone();
-    let mut rows: Vec<Value> = Vec::new();
+    let mut rows: Vec<ModalCase> = Vec::new();
     for mesh in a.meshes.split(',').map(str::trim) {
         for &d in &dofs {
             if !a.json {
@@ -333,10 +391,8 @@ pub fn run(c: BenchCmd) -> Result<()> {
                     eprintln!("bench modal: {mesh} ~{d} DOFs with faer's single-vector Lanczos (baseline) ...");
                 }
                 let base = run_child(&exe, mesh, d, a.modes, a.sturm, true)?;
-                let ratio = base["total_s"].as_f64().unwrap_or(f64::NAN)
-                    / v["total_s"].as_f64().unwrap_or(f64::NAN);
-                v["baseline_faer_lanczos_total_s"] = base["total_s"].clone();
-                v["speedup_vs_faer_lanczos"] = json!(ratio);
+                v.baseline_faer_lanczos_total_s = Some(base.total_s);
+                v.speedup_vs_faer_lanczos = Some(base.total_s / v.total_s);
             }
             rows.push(v);
         }
@@ -346,13 +402,33 @@ pub fn run(c: BenchCmd) -> Result<()> {
             .find(|l| l.starts_with("model name"))
             .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
     });
-    let doc = json!({
-        "benchmark": "modal",
-        "threads": std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
-        "cpu": cpu,
-        "targets": {"30k_dofs_s": 5.0, "100k_dofs_s": 30.0, "peak_mib": 4096},
-        "cases": rows,
-    });
+    #[derive(Serialize)]
+    struct Targets {
+        #[serde(rename = "30k_dofs_s")]
+        dofs_30k_s: f64,
+        #[serde(rename = "100k_dofs_s")]
+        dofs_100k_s: f64,
+        peak_mib: f64,
+    }
+    #[derive(Serialize)]
+    struct Doc<'a> {
+        benchmark: &'static str,
+        threads: usize,
+        cpu: Option<String>,
+        targets: Targets,
+        cases: &'a [ModalCase],
+    }
+    let doc = Doc {
+        benchmark: "modal",
+        threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        cpu,
+        targets: Targets {
+            dofs_30k_s: 5.0,
+            dofs_100k_s: 30.0,
+            peak_mib: 4096.0,
+        },
+        cases: &rows,
+    };
     if a.json {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
@@ -372,16 +448,16 @@ pub fn run(c: BenchCmd) -> Result<()> {
         for r in &rows {
             println!(
                 "{:<5} {:>8} {:>9} {:>10} {:>9.2} {:>9.2} {:>9.2} {:>9.0} {:>9.1} {:>8.2}",
-                r["mesh"].as_str().unwrap_or(""),
-                r["dofs"],
-                r["nnz"],
-                r["nnz_factor"],
-                r["factor_s"].as_f64().unwrap_or(f64::NAN),
-                r["eigen_s"].as_f64().unwrap_or(f64::NAN),
-                r["total_s"].as_f64().unwrap_or(f64::NAN),
-                r["peak_rss_mib"].as_f64().unwrap_or(f64::NAN),
-                r["f1_hz"].as_f64().unwrap_or(f64::NAN),
-                r["speedup_vs_faer_lanczos"].as_f64().unwrap_or(f64::NAN),
+                r.mesh,
+                r.dofs,
+                r.nnz,
+                r.nnz_factor,
+                r.factor_s,
+                r.eigen_s,
+                r.total_s,
+                r.peak_rss_mib.unwrap_or(f64::NAN),
+                r.f1_hz.unwrap_or(f64::NAN),
+                r.speedup_vs_faer_lanczos.unwrap_or(f64::NAN),
             );
         }
     }
@@ -410,8 +486,25 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
             },
         ));
     }
-    let mut out = serde_json::Map::new();
-    out.insert("benchmark".into(), json!("analyze"));
+    #[derive(Serialize)]
+    struct Method {
+        single: crate::analysis::SingleReport,
+        mixtures: Vec<crate::analysis::MixtureReport>,
+        seconds_per_audio_second: f64,
+    }
+    #[derive(Serialize)]
+    struct Doc {
+        benchmark: &'static str,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        refined: Option<Method>,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        stage1: Option<Method>,
+    }
+    let mut out = Doc {
+        benchmark: "analyze",
+        refined: None,
+        stage1: None,
+    };
     for (name, params) in &methods {
         if !a.json {
             eprintln!("bench analyze [{name}]: {} single sinusoids ...", a.trials);
@@ -470,13 +563,19 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
             }
             println!("[{name}] mean analysis time per second of audio (mixtures): {secs:.3} s");
         }
-        out.insert(
-            (*name).to_string(),
-            json!({"single": single, "mixtures": mix, "seconds_per_audio_second": secs}),
-        );
+        let m = Some(Method {
+            single,
+            mixtures: mix,
+            seconds_per_audio_second: secs,
+        });
+        if *name == "refined" {
+            out.refined = m;
+        } else {
+            out.stage1 = m;
+        }
     }
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&Value::Object(out))?);
+        println!("{}", serde_json::to_string_pretty(&out)?);
     }
     Ok(())
 }
@@ -556,16 +655,40 @@ fn run_estimate(a: EstimateBenchArgs) -> Result<()> {
     if a.json {
         println!(
             "{}",
-            serde_json::to_string_pretty(&json!({
-                "benchmark": "estimate",
-                "mesh": "spot (CC0), 0.15 scale, 40 modes, ~2500 voxels",
-                "cases": rows,
-                "finer_source_voxels": fine_voxels,
-                "finer_source_cases": bias_rows,
-            }))?
+            serde_json::to_string_pretty(&EstimateDoc {
+                benchmark: "estimate",
+                mesh: "spot (CC0), 0.15 scale, 40 modes, ~2500 voxels",
+                cases: &rows,
+                finer_source_voxels: fine_voxels,
+                finer_source_cases: &bias_rows,
+            })?
         );
     }
     Ok(())
+}
+
+#[derive(Serialize)]
+struct EstimateDoc<'a> {
+    benchmark: &'static str,
+    mesh: &'static str,
+    cases: &'a [crate::recovery::RecoveryReport],
+    finer_source_voxels: usize,
+    finer_source_cases: &'a [crate::recovery::RecoveryReport],
+}
+
+/// `bench synth` figures.
+#[derive(Serialize)]
+struct SynthDoc {
+    benchmark: &'static str,
+    modes: usize,
+    mode_samples_per_s: f64,
+    modes_realtime_48k: f64,
+    portable_modes_realtime_48k: f64,
+    scalar_modes_realtime_48k: f64,
+    ratio_vs_scalar: f64,
+    residual_transfer_p50_ms: f64,
+    residual_transfer_p99_ms: f64,
+    residual_events: usize,
 }
 
 fn run_synth(a: SynthBenchArgs) -> Result<()> {
@@ -582,18 +705,18 @@ fn run_synth(a: SynthBenchArgs) -> Result<()> {
     let scalar = best(&|| scalar_loop_mode_samples_per_s(a.modes, a.seconds));
     let lat = residual_transfer_latencies_ms(a.events, 1);
     let pct = |q: f64| lat[((lat.len() - 1) as f64 * q).round() as usize];
-    let v = json!({
-        "benchmark": "synth",
-        "modes": a.modes,
-        "mode_samples_per_s": simd,
-        "modes_realtime_48k": simd / 48_000.0,
-        "portable_modes_realtime_48k": portable / 48_000.0,
-        "scalar_modes_realtime_48k": scalar / 48_000.0,
-        "ratio_vs_scalar": simd / scalar,
-        "residual_transfer_p50_ms": pct(0.5),
-        "residual_transfer_p99_ms": pct(0.99),
-        "residual_events": a.events,
-    });
+    let v = SynthDoc {
+        benchmark: "synth",
+        modes: a.modes,
+        mode_samples_per_s: simd,
+        modes_realtime_48k: simd / 48_000.0,
+        portable_modes_realtime_48k: portable / 48_000.0,
+        scalar_modes_realtime_48k: scalar / 48_000.0,
+        ratio_vs_scalar: simd / scalar,
+        residual_transfer_p50_ms: pct(0.5),
+        residual_transfer_p99_ms: pct(0.99),
+        residual_events: a.events,
+    };
     if a.json {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
@@ -681,9 +804,28 @@ fn run_scene(a: SceneBenchArgs) -> Result<()> {
     if counts.is_empty() || counts.iter().any(|&c| c == 0 || c > 2000) || !(a.seconds > 0.0) {
         bail!("--bodies must list counts in 1..=2000 and --seconds must be > 0");
     }
-    let mut out = serde_json::Map::new();
-    out.insert("benchmark".into(), json!("scene"));
-    out.insert("seconds".into(), json!(a.seconds));
+    /// What `resound scene --json` prints.
+    #[derive(Serialize, Deserialize)]
+    struct SceneJson {
+        output: String,
+        #[serde(flatten)]
+        summary: resound::scene::SceneSummary,
+    }
+    #[derive(Serialize)]
+    struct Case {
+        bodies: usize,
+        summary: SceneJson,
+    }
+    #[derive(Serialize)]
+    struct Doc {
+        benchmark: &'static str,
+        seconds: f64,
+        #[serde(flatten)]
+        realtime_factors: std::collections::BTreeMap<String, f64>,
+        peak_rss_mb: f64,
+        cases: Vec<Case>,
+    }
+    let mut realtime_factors = std::collections::BTreeMap::new();
     let mut cases = Vec::new();
     let mut peak = 0.0f64;
     for &n in &counts {
@@ -708,28 +850,37 @@ fn run_scene(a: SceneBenchArgs) -> Result<()> {
                 String::from_utf8_lossy(&o.stderr)
             );
         }
-        let v: Value = serde_json::from_slice(&o.stdout).context("parsing the scene summary")?;
-        let rtf = v["realtime_factor"].as_f64().unwrap_or(0.0);
-        let rss = v["peak_rss_mb"].as_f64().unwrap_or(0.0);
+        let v: SceneJson =
+            serde_json::from_slice(&o.stdout).context("parsing the scene summary")?;
+        let s = &v.summary;
+        let (rtf, rss) = (s.realtime_factor, s.peak_rss_mb);
         peak = peak.max(rss);
-        out.insert(format!("realtime_factor_{n}"), json!(rtf));
+        realtime_factors.insert(format!("realtime_factor_{n}"), rtf);
         if !a.json {
             println!(
                 "{n:>4} bodies: {rtf:>6.1}x real time (physics {:.2} s, sound {:.2} s for {} s), {} impacts, {} voices at most, build {:.1} s, peak {rss:.0} MB",
-                v["physics_s"].as_f64().unwrap_or(0.0),
-                v["audio_s"].as_f64().unwrap_or(0.0),
+                s.physics_s,
+                s.audio_s,
                 a.seconds,
-                v["impacts"],
-                v["max_voices"],
-                v["build_s"].as_f64().unwrap_or(0.0),
+                s.impacts,
+                s.max_voices,
+                s.build_s,
             );
         }
-        cases.push(json!({"bodies": n, "summary": v}));
+        cases.push(Case {
+            bodies: n,
+            summary: v,
+        });
     }
-    out.insert("peak_rss_mb".into(), json!(peak));
-    out.insert("cases".into(), json!(cases));
+    let out = Doc {
+        benchmark: "scene",
+        seconds: a.seconds,
+        realtime_factors,
+        peak_rss_mb: peak,
+        cases,
+    };
     if a.json {
-        println!("{}", serde_json::to_string_pretty(&Value::Object(out))?);
+        println!("{}", serde_json::to_string_pretty(&out)?);
     }
     Ok(())
 }
@@ -789,13 +940,21 @@ fn run_stats(a: StatsBenchArgs) -> Result<()> {
         std::hint::black_box(&y);
         Ok(t0.elapsed().as_secs_f64())
     })?;
-    let v = json!({
-        "benchmark": "stats",
-        "impacts100_s": impacts,
-        "scrape10s_s": scrape10,
-        "impact_audio_s": 1.0,
-        "modes": stats.modes,
-    });
+    #[derive(Serialize)]
+    struct Doc {
+        benchmark: &'static str,
+        impacts100_s: f64,
+        scrape10s_s: f64,
+        impact_audio_s: f64,
+        modes: usize,
+    }
+    let v = Doc {
+        benchmark: "stats",
+        impacts100_s: impacts,
+        scrape10s_s: scrape10,
+        impact_audio_s: 1.0,
+        modes: stats.modes,
+    };
     if a.json {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
@@ -850,35 +1009,32 @@ fn run_grains(a: GrainsBenchArgs) -> Result<()> {
     // Quality after the 16-bit round trip of the file.
     let bytes = resound::io::grains_file::encode(&dict);
     let saved = resound::io::grains_file::decode(&bytes, std::path::Path::new("bench.grains"))?;
-    let summary = serde_json::to_value(resound::grain_files::summary(&saved, Some(&recs))?)?;
+    let summary = resound::grain_files::summary(&saved, Some(&recs))?;
     // The pruned dictionary (grains that others stand in for at correlation 0.8 dropped).
     let pruned = resound::grains::prune::prune(&dict, 0.8);
     let pruned_bytes = resound::io::grains_file::encode(&pruned);
     let pruned = resound::io::grains_file::decode(&pruned_bytes, std::path::Path::new("p.grains"))?;
-    let pruned_summary =
-        serde_json::to_value(resound::grain_files::summary(&pruned, Some(&recs))?)?;
-    let pruned_sc: Vec<f64> = pruned_summary["recordings"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .filter_map(|r| r["spectral_convergence_db"].as_f64())
+    let pruned_summary = resound::grain_files::summary(&pruned, Some(&recs))?;
+    let pruned_sc: Vec<f64> = pruned_summary
+        .recordings
+        .iter()
+        .filter_map(|r| r.spectral_convergence_db)
         .collect();
     let scale = PICARD_AUDIO_S / audio_s;
     let scaled = (info.sms_s + info.grains_s) * scale
         + info.patterns_s * scale * (PICARD_GRAINS / dict.grains.len().max(1) as f64);
-    let sc: Vec<f64> = summary["recordings"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .filter_map(|r| r["spectral_convergence_db"].as_f64())
+    let sc: Vec<f64> = summary
+        .recordings
+        .iter()
+        .filter_map(|r| r.spectral_convergence_db)
         .collect();
     // Compression by kind of recording (own grains and peaks against mono 16-bit originals).
     let class_ratio = |continuous: bool| {
         let (mut orig, mut stored) = (0.0, 0.0);
-        for r in summary["recordings"].as_array().into_iter().flatten() {
-            if (r["contact"] != "impact") == continuous {
-                let ratio = r["compression_ratio"].as_f64().unwrap_or(0.0);
-                let o = r["duration_s"].as_f64().unwrap_or(0.0) * fs * 2.0;
+        for r in &summary.recordings {
+            if (r.contact != resound::grains::Contact::Impact) == continuous {
+                let ratio = r.compression_ratio;
+                let o = r.duration_s * fs * 2.0;
                 orig += o;
                 stored += o / ratio.max(1e-12);
             }
@@ -891,36 +1047,70 @@ fn run_grains(a: GrainsBenchArgs) -> Result<()> {
         s.get(s.len() / 2).copied().unwrap_or(f64::NAN)
     };
     let median_sc = median(&sc);
-    let v = json!({
-        "benchmark": "grains",
-        "recordings": recs.len(),
-        "audio_s": audio_s,
-        "analysis_s": analysis_s,
-        "sms_s": info.sms_s,
-        "grains_s": info.grains_s,
-        "patterns_s": info.patterns_s,
-        "pairs": info.pairs,
-        "grains": dict.grains.len(),
-        "analysis_s_scaled_94": scaled,
-        "analysis_s_scaled_94_linear": analysis_s * scale,
-        "picard_matlab_s": PICARD_MATLAB_S,
-        "compression_ratio": summary["compression_ratio"],
-        "compression_ratio_impulsive": class_ratio(false),
-        "compression_ratio_continuous": class_ratio(true),
-        "compression_ratio_vs_files": file_bytes as f64 / bytes.len().max(1) as f64,
-        "file_bytes": bytes.len(),
-        "source_file_bytes": file_bytes,
-        "spectral_convergence_db_worst": sc.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-        "spectral_convergence_db_median": median_sc,
-        "per_recording": summary["recordings"],
-        "pruned_0_8": {
-            "grains": pruned.grains.len(),
-            "compression_ratio": pruned_summary["compression_ratio"],
-            "spectral_convergence_db_median": median(&pruned_sc),
-            "spectral_convergence_db_worst": pruned_sc.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-            "per_recording_db": pruned_sc,
+    #[derive(Serialize)]
+    struct Pruned {
+        grains: usize,
+        compression_ratio: f64,
+        spectral_convergence_db_median: f64,
+        spectral_convergence_db_worst: f64,
+        per_recording_db: Vec<f64>,
+    }
+    #[derive(Serialize)]
+    struct Doc<'a> {
+        benchmark: &'static str,
+        recordings: usize,
+        audio_s: f64,
+        analysis_s: f64,
+        sms_s: f64,
+        grains_s: f64,
+        patterns_s: f64,
+        pairs: usize,
+        grains: usize,
+        analysis_s_scaled_94: f64,
+        analysis_s_scaled_94_linear: f64,
+        picard_matlab_s: f64,
+        compression_ratio: f64,
+        compression_ratio_impulsive: f64,
+        compression_ratio_continuous: f64,
+        compression_ratio_vs_files: f64,
+        file_bytes: usize,
+        source_file_bytes: usize,
+        spectral_convergence_db_worst: f64,
+        spectral_convergence_db_median: f64,
+        per_recording: &'a [resound::grain_files::RecordingSummary],
+        pruned_0_8: Pruned,
+    }
+    let worst = |v: &[f64]| v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let v = Doc {
+        benchmark: "grains",
+        recordings: recs.len(),
+        audio_s,
+        analysis_s,
+        sms_s: info.sms_s,
+        grains_s: info.grains_s,
+        patterns_s: info.patterns_s,
+        pairs: info.pairs,
+        grains: dict.grains.len(),
+        analysis_s_scaled_94: scaled,
+        analysis_s_scaled_94_linear: analysis_s * scale,
+        picard_matlab_s: PICARD_MATLAB_S,
+        compression_ratio: summary.compression_ratio,
+        compression_ratio_impulsive: class_ratio(false),
+        compression_ratio_continuous: class_ratio(true),
+        compression_ratio_vs_files: file_bytes as f64 / bytes.len().max(1) as f64,
+        file_bytes: bytes.len(),
+        source_file_bytes: file_bytes,
+        spectral_convergence_db_worst: worst(&sc),
+        spectral_convergence_db_median: median_sc,
+        per_recording: &summary.recordings,
+        pruned_0_8: Pruned {
+            grains: pruned.grains.len(),
+            compression_ratio: pruned_summary.compression_ratio,
+            spectral_convergence_db_median: median(&pruned_sc),
+            spectral_convergence_db_worst: worst(&pruned_sc),
+            per_recording_db: pruned_sc.clone(),
         },
-    });
+    };
     if a.json {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
@@ -935,18 +1125,16 @@ fn run_grains(a: GrainsBenchArgs) -> Result<()> {
             dict.grains.len(),
             scaled,
             PICARD_MATLAB_S,
-            v["compression_ratio"].as_f64().unwrap_or(f64::NAN),
-            v["compression_ratio_impulsive"].as_f64().unwrap_or(f64::NAN),
-            v["compression_ratio_continuous"].as_f64().unwrap_or(f64::NAN),
-            v["spectral_convergence_db_median"].as_f64().unwrap_or(f64::NAN),
-            v["spectral_convergence_db_worst"].as_f64().unwrap_or(f64::NAN),
+            v.compression_ratio,
+            v.compression_ratio_impulsive,
+            v.compression_ratio_continuous,
+            v.spectral_convergence_db_median,
+            v.spectral_convergence_db_worst,
         );
+        let p = &v.pruned_0_8;
         println!(
             "pruned at correlation 0.8: {} grains, compression {:.2}:1, rebuild median {:.1} dB, worst {:.1} dB",
-            v["pruned_0_8"]["grains"],
-            v["pruned_0_8"]["compression_ratio"].as_f64().unwrap_or(f64::NAN),
-            v["pruned_0_8"]["spectral_convergence_db_median"].as_f64().unwrap_or(f64::NAN),
-            v["pruned_0_8"]["spectral_convergence_db_worst"].as_f64().unwrap_or(f64::NAN),
+            p.grains, p.compression_ratio, p.spectral_convergence_db_median, p.spectral_convergence_db_worst,
         );
     }
     Ok(())

@@ -376,7 +376,7 @@ pub struct SceneRenderParams {
 }
 
 /// Figures of a rendered scene.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct SceneSummary {
     /// Bodies.
     pub bodies: usize,
