@@ -2,7 +2,7 @@
 
 use crate::util::parse_list;
 use anyhow::{Context, Result};
-use clap::{Args, Subcommand, ValueEnum};
+use clap::{Args, Subcommand};
 use resound::io::save_surface;
 use resound::mesh::{check_mesh, make_primitive, MeshReport, PrimitiveKind};
 use std::path::PathBuf;
@@ -16,28 +16,13 @@ pub enum MeshCmd {
     Check(CheckArgs),
 }
 
-/// Primitive shapes.
-#[derive(ValueEnum, Clone, Copy, Debug)]
-pub enum Kind {
-    /// Axis-aligned box x,y,z.
-    Bar,
-    /// Same as bar.
-    Box,
-    /// Box x,y,thickness.
-    Plate,
-    /// Closed cylinder radius,height along z.
-    Cylinder,
-    /// Sphere radius.
-    Sphere,
-    /// Spherical bowl radius,thickness(,depth), rim at z = 0.
-    Bowl,
-}
-
 /// Arguments of `mesh primitive`.
 #[derive(Args, Debug)]
 pub struct PrimitiveArgs {
-    /// Which shape.
-    pub kind: Kind,
+    /// Which shape: bar and box (x,y,z), plate (x,y,thickness), cylinder (radius,height along
+    /// z), sphere (radius), bowl (radius,thickness[,depth], rim at z = 0).
+    #[arg(value_parser = parse_kind)]
+    pub kind: PrimitiveKind,
     /// Comma-separated sizes in m (see the shape).
     #[arg(long)]
     pub size: String,
@@ -65,24 +50,18 @@ pub struct CheckArgs {
     pub json: bool,
 }
 
-impl From<Kind> for PrimitiveKind {
-    fn from(k: Kind) -> Self {
-        match k {
-            Kind::Bar => PrimitiveKind::Bar,
-            Kind::Box => PrimitiveKind::Box,
-            Kind::Plate => PrimitiveKind::Plate,
-            Kind::Cylinder => PrimitiveKind::Cylinder,
-            Kind::Sphere => PrimitiveKind::Sphere,
-            Kind::Bowl => PrimitiveKind::Bowl,
-        }
-    }
+fn parse_kind(s: &str) -> std::result::Result<PrimitiveKind, String> {
+    PrimitiveKind::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = PrimitiveKind::NAMES.iter().map(|(n, _)| *n).collect();
+        format!("unknown shape '{s}' (one of {})", names.join(", "))
+    })
 }
 
 /// Runs a mesh subcommand.
 pub fn run(c: MeshCmd) -> Result<()> {
     match c {
         MeshCmd::Primitive(a) => {
-            let m = make_primitive(a.kind.into(), &parse_list(&a.size)?, a.segments)?;
+            let m = make_primitive(a.kind, &parse_list(&a.size)?, a.segments)?;
             save_surface(&a.output, &m)
                 .with_context(|| format!("writing {}", a.output.display()))?;
             eprintln!(

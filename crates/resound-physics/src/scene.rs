@@ -274,6 +274,34 @@ struct StepContacts {
     stats: SceneStats,
 }
 
+impl StepContacts {
+    /// The same force on both bodies of a contact (the first gets a copy).
+    fn excite_both(
+        &mut self,
+        pair: [usize; 2],
+        point: [f64; 3],
+        normal: [f64; 3],
+        kind: ContactKind,
+        force: Vec<f32>,
+        scale: f64,
+        delay: usize,
+        time_s: f64,
+    ) {
+        let e = Excitation {
+            body: pair[0],
+            point,
+            normal,
+            kind,
+            force,
+            scale,
+            delay,
+            time_s,
+        };
+        self.excitations.push(e.clone());
+        self.excitations.push(Excitation { body: pair[1], ..e });
+    }
+}
+
 /// Classifies rapier's contact pairs after each step — impacts (timed within the step, shaped
 /// by Hertz, carrying the solver impulse), sliding, rolling, resting — and turns them into
 /// [`Excitation`]s with the force models of `resound_synth::contact`.
@@ -392,18 +420,16 @@ impl ContactTracker {
                         for i in [i1, i2] {
                             out.grain_impacts.push((i, at_sample, impulse));
                         }
-                        for body in [i1, i2] {
-                            out.excitations.push(Excitation {
-                                body,
-                                point,
-                                normal: arr(normal),
-                                kind: ContactKind::Impact,
-                                force: pulse.clone(),
-                                scale,
-                                delay: at_sample,
-                                time_s: t_contact,
-                            });
-                        }
+                        out.excite_both(
+                            [i1, i2],
+                            point,
+                            arr(normal),
+                            ContactKind::Impact,
+                            pulse,
+                            scale,
+                            at_sample,
+                            t_contact,
+                        );
                     }
                     out.stats.impacts += 1;
                     out.events.push(Event {
@@ -459,18 +485,16 @@ impl ContactTracker {
                     let f = state
                         .force
                         .scraping(surface, normal_force, speed, mu, fs, n);
-                    for body in [i1, i2] {
-                        out.excitations.push(Excitation {
-                            body,
-                            point,
-                            normal: arr(normal),
-                            kind: ContactKind::Sliding,
-                            force: f.clone(),
-                            scale: 1.0,
-                            delay: 0,
-                            time_s: t_start,
-                        });
-                    }
+                    out.excite_both(
+                        [i1, i2],
+                        point,
+                        arr(normal),
+                        ContactKind::Sliding,
+                        f,
+                        1.0,
+                        0,
+                        t_start,
+                    );
                     out.stats.sliding_steps += 1;
                     let t = t_start + dt;
                     if state.last_kind != Some(ContactKind::Sliding)
@@ -509,18 +533,16 @@ impl ContactTracker {
                             &mut self.step_force,
                         );
                     }
-                    for body in [i1, i2] {
-                        out.excitations.push(Excitation {
-                            body,
-                            point,
-                            normal: arr(normal),
-                            kind,
-                            force: self.step_force.clone(),
-                            scale: 1.0,
-                            delay: 0,
-                            time_s: t_start,
-                        });
-                    }
+                    out.excite_both(
+                        [i1, i2],
+                        point,
+                        arr(normal),
+                        kind,
+                        self.step_force.clone(),
+                        1.0,
+                        0,
+                        t_start,
+                    );
                     match kind {
                         ContactKind::Sliding => out.stats.sliding_steps += 1,
                         _ => out.stats.rolling_steps += 1,

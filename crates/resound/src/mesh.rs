@@ -24,6 +24,26 @@ pub enum PrimitiveKind {
     Bowl,
 }
 
+impl PrimitiveKind {
+    /// Every kind by its name.
+    pub const NAMES: [(&'static str, PrimitiveKind); 6] = [
+        ("bar", PrimitiveKind::Bar),
+        ("box", PrimitiveKind::Box),
+        ("plate", PrimitiveKind::Plate),
+        ("cylinder", PrimitiveKind::Cylinder),
+        ("sphere", PrimitiveKind::Sphere),
+        ("bowl", PrimitiveKind::Bowl),
+    ];
+
+    /// The kind called `name` (lower case).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::NAMES
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|&(_, k)| k)
+    }
+}
+
 /// A primitive surface from its sizes (m) and, for round shapes, `segments` around.
 ///
 /// # Errors
