@@ -34,7 +34,7 @@ pub struct SoundMaterial {
     pub sigma: f64,
     /// Damping model: "rayleigh" (C = αM + βK, from `alpha` and `beta`) or "caughey"
     /// (C = M Σ_j c_j (M⁻¹K)^j, from `caughey`).
-    pub damping_model: String,
+    pub damping_model: DampingModel,
     /// Caughey series coefficients c_0, c_1, … (units 1/s, s, s³, …) when `damping_model` is
     /// "caughey": mode i decays at d_i = ½ Σ_j c_j ω_i^(2j) (dissertation eq. 1.12).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -128,6 +128,18 @@ pub fn damped_modes_indexed(
     out
 }
 
+/// Which damping a material file describes (`"damping_model"` in its JSON): the
+/// serialized name of a [`Damping`] variant, whose values sit beside it in the file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DampingModel {
+    /// C = αM + βK, from `alpha` and `beta`.
+    #[default]
+    Rayleigh,
+    /// The Caughey series, from `caughey`.
+    Caughey,
+}
+
 /// How modes lose energy: d_i as a function of the undamped ω_i.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Damping {
@@ -169,7 +181,7 @@ impl SoundMaterial {
             beta,
             gamma,
             sigma,
-            damping_model: "rayleigh".to_string(),
+            damping_model: DampingModel::Rayleigh,
             caughey: Vec::new(),
             mode_damping: Vec::new(),
             provenance: None,
@@ -179,7 +191,7 @@ impl SoundMaterial {
 
     /// The damping model this material describes.
     pub fn damping(&self) -> Damping {
-        if self.damping_model == "caughey" {
+        if self.damping_model == DampingModel::Caughey {
             Damping::Caughey(self.caughey.clone())
         } else {
             Damping::Rayleigh {
@@ -243,21 +255,13 @@ impl SoundMaterial {
                 self.name
             ));
         }
-        match self.damping_model.as_str() {
-            "rayleigh" => {}
-            "caughey" => {
-                if self.caughey.is_empty() || self.caughey.iter().any(|c| !c.is_finite()) {
-                    return Err(format!(
-                        "a Caughey material needs finite coefficients, got {:?}",
-                        self.caughey
-                    ));
-                }
-            }
-            other => {
-                return Err(format!(
-                    "unknown damping model {other:?} (known: rayleigh, caughey)"
-                ))
-            }
+        if self.damping_model == DampingModel::Caughey
+            && (self.caughey.is_empty() || self.caughey.iter().any(|c| !c.is_finite()))
+        {
+            return Err(format!(
+                "a Caughey material needs finite coefficients, got {:?}",
+                self.caughey
+            ));
         }
         if let Some(o) = self
             .mode_damping
@@ -346,7 +350,7 @@ mod tests {
             m.modes(&l0, &[1e-3, -2e-3], 1.0e7, 1e5)[1].damping_per_s,
             42.0
         );
-        m.damping_model = "caughey".into();
+        m.damping_model = DampingModel::Caughey;
         assert!(m.validate().is_err());
         m.caughey = vec![2.0, 1e-7];
         assert!(m.validate().is_ok());
