@@ -20,7 +20,7 @@ pub enum MeshCmd {
 #[derive(Args, Debug)]
 pub struct PrimitiveArgs {
     /// Which shape: bar and box (x,y,z), plate (x,y,thickness), cylinder (radius,height along
-    /// z), sphere (radius), bowl (radius,thickness[,depth], rim at z = 0).
+    /// z), sphere (radius), bowl (radius,thickness(,depth), rim at z = 0).
     #[arg(value_parser = parse_kind)]
     pub kind: PrimitiveKind,
     /// Comma-separated sizes in m (see the shape).

@@ -202,10 +202,7 @@ pub fn run(a: SynthArgs) -> Result<()> {
             let material = load_sound_material(spec, &a.library)?;
             let model = load_model(mesh, a.scale, a.mesh_modes, &a.reference_material)?;
             let hit = snap(&model, parse_vec3(hit)?)?;
-            let same_object = material.provenance.as_ref().is_some_and(|p| {
-                p.mesh == mesh.display().to_string()
-                    && (0..3).all(|i| (p.hit[i] - hit.at.point[i]).abs() < 1e-6)
-            });
+            let same_object = material.was_estimated_on(&mesh.display().to_string(), hit.at.point);
             let struck = Struck::Object {
                 material: &material,
                 model: &model,

@@ -189,6 +189,14 @@ impl SoundMaterial {
         }
     }
 
+    /// Whether this material was estimated on the object `mesh` (as named in its provenance)
+    /// struck at `point` (within 1 µm): then its residual transfers by natural pairing.
+    pub fn was_estimated_on(&self, mesh: &str, point: [f64; 3]) -> bool {
+        self.provenance
+            .as_ref()
+            .is_some_and(|p| p.mesh == mesh && (0..3).all(|i| (p.hit[i] - point[i]).abs() < 1e-6))
+    }
+
     /// The damping model this material describes.
     pub fn damping(&self) -> Damping {
         if self.damping_model == DampingModel::Caughey {

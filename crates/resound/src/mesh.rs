@@ -20,7 +20,7 @@ pub enum PrimitiveKind {
     Cylinder,
     /// A sphere: radius (m).
     Sphere,
-    /// A bowl: radius, wall thickness, [depth] (m).
+    /// A bowl: radius, wall thickness and optionally depth (m).
     Bowl,
 }
 
