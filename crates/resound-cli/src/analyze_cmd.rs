@@ -70,6 +70,8 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     if !(a.max_duration_s > 0.02 && a.max_duration_s <= 600.0) {
         bail!("--max-duration-s must be in (0.02, 600]");
     }
+    let outs: Vec<&std::path::Path> = a.json.iter().chain(&a.plot).map(|p| p.as_path()).collect();
+    crate::util::check_paths(&[&a.audio], &outs)?;
     let params = AnalyzeParams {
         max_modes: a.max_modes,
         min_db: a.min_db,

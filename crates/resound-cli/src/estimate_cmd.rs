@@ -1,13 +1,13 @@
 //! `resound estimate` and `resound materials`: material estimation and the material library.
 
 use crate::util::{bar, parse_vec3, print_json, spinner, stage_message, warn_all};
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use resound::core::{Material, ModalModel};
 use resound::io::library::{read_material, write_material};
 use resound::material::{
-    estimate_material, estimate_plot, library_material as get, open_library, start_count,
-    EstimateMaterialParams,
+    estimate_material, estimate_plot, library_material as get, open_library, read_library,
+    start_count, EstimateMaterialParams,
 };
 use resound::object::{load_object, ObjectParams};
 use resound::recording::{analyze_file, RecordingParams};
@@ -57,6 +57,13 @@ pub struct EstimateArgs {
     /// Do not compute and store the residual (Ren §6.1).
     #[arg(long)]
     pub no_residual: bool,
+    /// Keep an estimate whose parameters are not credible (β at the optimizer's floor, γ
+    /// outside the range of solids) with a warning instead of failing.
+    #[arg(long)]
+    pub allow_implausible: bool,
+    /// Replace a library entry of the same name (`--name`).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// A modal model from a saved `.rmodal` or a mesh solved with `reference_material`, with a
@@ -112,6 +119,18 @@ struct Output<'a> {
 /// Runs `estimate`.
 pub fn run(a: EstimateArgs) -> Result<()> {
     let query = parse_vec3(&a.hit)?;
+    let outs: Vec<&Path> = a
+        .output
+        .iter()
+        .chain(&a.plot)
+        .map(|p| p.as_path())
+        .collect();
+    crate::util::check_paths(&[&a.audio, &a.mesh], &outs)?;
+    if let (Some(name), Some(lib)) = (&a.name, read_library(a.library.as_deref())?) {
+        if lib.get(name)?.is_some() && !a.force {
+            bail!("the library already has a material named {name:?}; pass --force to replace it");
+        }
+    }
     let name = a.name.clone().unwrap_or_else(|| {
         a.audio
             .file_stem()
@@ -130,6 +149,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
         residual: !a.no_residual,
         recording_name: a.audio.display().to_string(),
         object_name: a.mesh.display().to_string(),
+        allow_implausible: a.allow_implausible,
         ..Default::default()
     };
     let pb = bar(
@@ -225,6 +245,9 @@ pub struct FileArg {
     /// Material library path.
     #[arg(long)]
     pub library: Option<PathBuf>,
+    /// Replace a library entry of the same name.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Export arguments.
@@ -239,11 +262,22 @@ pub struct ExportArg {
     pub library: Option<PathBuf>,
 }
 
+/// The library, which must exist already (read-only commands never create one).
+fn existing(path: &Option<PathBuf>) -> Result<resound::io::library::Library> {
+    read_library(path.as_deref())?
+        .context("no material library yet (estimate --name or materials import creates one)")
+}
+
 /// Runs `materials`.
 pub fn run_materials(c: MaterialsCmd) -> Result<()> {
     match c {
         MaterialsCmd::List(a) => {
-            let lib = open_library(a.library.as_deref())?;
+            let Some(lib) = read_library(a.library.as_deref())? else {
+                eprintln!(
+                    "no material library yet (estimate --name or materials import creates one)"
+                );
+                return Ok(());
+            };
             for n in lib.names()? {
                 let m = get(&lib, &n)?;
                 println!(
@@ -261,20 +295,28 @@ pub fn run_materials(c: MaterialsCmd) -> Result<()> {
             }
         }
         MaterialsCmd::Show(a) => {
-            let lib = open_library(a.library.as_deref())?;
+            let lib = existing(&a.library)?;
             println!("{}", serde_json::to_string_pretty(&get(&lib, &a.name)?)?);
         }
         MaterialsCmd::Import(a) => {
             let m = read_material(&a.file)?;
             let mut lib = open_library(a.library.as_deref())?;
+            if lib.get(&m.name)?.is_some() && !a.force {
+                bail!(
+                    "the library already has a material named {:?}; pass --force to replace it",
+                    m.name
+                );
+            }
             lib.put(&m)?;
             eprintln!("imported {:?}", m.name);
         }
         MaterialsCmd::Export(a) => {
-            let lib = open_library(a.library.as_deref())?;
+            crate::util::check_paths(&[], &[&a.file])?;
+            let lib = existing(&a.library)?;
             write_material(&a.file, &get(&lib, &a.name)?)?;
         }
         MaterialsCmd::Remove(a) => {
+            existing(&a.library)?;
             let mut lib = open_library(a.library.as_deref())?;
             if !lib.remove(&a.name)? {
                 bail!("no material {:?} in the library", a.name);

@@ -126,6 +126,18 @@ fn progress_bar() -> ProgressBar {
 pub fn run(c: GrainsCmd) -> Result<()> {
     match c {
         GrainsCmd::Analyze(a) => {
+            let inputs: Vec<&std::path::Path> = a
+                .recordings
+                .iter()
+                .map(|r| {
+                    std::path::Path::new(
+                        r.split_once(':')
+                            .filter(|_| !std::path::Path::new(r).exists())
+                            .map_or(r.as_str(), |(_, p)| p),
+                    )
+                })
+                .collect();
+            crate::util::check_paths(&inputs, &[&a.output])?;
             let (recs, fs, _) = load_recordings(&a.recordings, a.kind.rule(), a.sample_rate)?;
             let mut params = AnalyzeParams::default();
             params.segment.min_db = a.min_db;
@@ -164,6 +176,11 @@ pub fn run(c: GrainsCmd) -> Result<()> {
             }
         }
         GrainsCmd::Resynth(a) => {
+            let inputs: Vec<&std::path::Path> = std::iter::once(&a.dictionary)
+                .chain(&a.reference)
+                .map(|p| p.as_path())
+                .collect();
+            crate::util::check_paths(&inputs, &[&a.output])?;
             let d = resound::io::grains_file::load(&a.dictionary)?;
             let k = recording_index(&d, &a.recording)
                 .with_context(|| a.dictionary.display().to_string())?;

@@ -70,7 +70,27 @@ enum Command {
     BenchCase(resound_bench::run::CaseArgs),
 }
 
+/// `println!` panics when stdout is a closed pipe (`resound analyze x.wav | head -1`); like
+/// ripgrep, a closed pipe is a normal way to stop reading, so that ends the process quietly
+/// with exit 0. Every other panic keeps the default report.
+fn quiet_on_broken_pipe() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let message = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if message.contains("Broken pipe") || message.contains("os error 32") {
+            std::process::exit(0);
+        }
+        default(info);
+    }));
+}
+
 fn main() -> ExitCode {
+    quiet_on_broken_pipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(a) => demo_cmd::run(a),

@@ -115,6 +115,10 @@ fn print_modes(model: &ModalModel, hit: Option<&Hit>) {
 
 /// Runs `resound modal`.
 pub fn run(a: ModalArgs) -> Result<()> {
+    crate::util::check_paths(
+        &[&a.mesh],
+        &a.output.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
+    )?;
     let material = Material::parse(&a.material)?;
     let hit = a.hit.as_deref().map(parse_vec3).transpose()?;
     let p = params(&a)?;

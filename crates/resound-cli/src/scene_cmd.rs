@@ -56,6 +56,11 @@ struct Output<'a> {
 
 /// Runs `scene`.
 pub fn run(a: SceneArgs) -> Result<()> {
+    let outs: Vec<&std::path::Path> = std::iter::once(&a.output)
+        .chain(&a.events)
+        .map(|p| p.as_path())
+        .collect();
+    crate::util::check_paths(&[&a.scene], &outs)?;
     let params = SceneRenderParams {
         library: a.library.clone(),
         cache_dir: if a.no_cache {

@@ -105,6 +105,15 @@ fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
 
 /// Runs `scrape`.
 pub fn run(a: ScrapeArgs) -> Result<()> {
+    let inputs: Vec<&std::path::Path> = a
+        .stats
+        .iter()
+        .chain(&a.modes)
+        .chain(&a.mesh)
+        .chain(&a.trajectory)
+        .map(|p| p.as_path())
+        .collect();
+    crate::util::check_paths(&inputs, &[&a.output])?;
     let fs = f64::from(a.sample_rate);
     let path = match (&a.trajectory, a.speed) {
         (Some(t), _) => Path1d::Trajectory(read_trajectory(t)?),

@@ -47,6 +47,8 @@ pub struct ImportArgs {
 pub fn run(c: StatsCmd) -> Result<()> {
     match c {
         StatsCmd::Fit(a) => {
+            let inputs: Vec<&std::path::Path> = a.recordings.iter().map(|p| p.as_path()).collect();
+            crate::util::check_paths(&inputs, &[&a.output])?;
             let each = |p: &std::path::Path, n: usize| eprintln!("{}: {n} modes", p.display());
             let s = resound::files::fit_stats(
                 &a.recordings,

@@ -133,7 +133,7 @@ pub fn load_sound_material(spec: &str, library: &Option<PathBuf>) -> Result<Soun
     let lib = if path.is_file() || spec.to_ascii_lowercase().ends_with(".json") {
         None
     } else {
-        Some(resound::material::open_library(library.as_deref())?)
+        resound::material::read_library(library.as_deref())?
     };
     Ok(resound::material::resolve_material(
         spec,
@@ -157,6 +157,17 @@ struct Output<'a> {
 /// Runs `synth`.
 pub fn run(a: SynthArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
+    let inputs: Vec<&Path> = a
+        .mesh
+        .iter()
+        .chain(&a.modes)
+        .chain(&a.stats)
+        .map(|p| p.as_path())
+        .collect();
+    crate::util::check_paths(&inputs, &[&a.output])?;
+    if (a.duration * f64::from(a.sample_rate)).round() < 1.0 {
+        bail!("--duration {} s is shorter than one sample", a.duration);
+    }
     if !(8000..=192_000).contains(&a.sample_rate) {
         bail!(
             "--sample-rate must be within 8000–192000 Hz, got {}",

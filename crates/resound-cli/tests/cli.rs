@@ -1084,3 +1084,172 @@ sound = { grains = "set.grains" }
     assert!(x[..hit - 500].iter().all(|&s| s == 0.0));
     assert!(x[hit..hit + 4800].iter().any(|&s| s.abs() > 0.01));
 }
+
+/// Regression tests named after the findings of issue 15 (ripgrep's `tests/regression.rs`).
+mod regression {
+    use super::*;
+    use std::process::Stdio;
+
+    #[test]
+    fn issue_15_a_closed_pipe_ends_quietly_with_exit_0() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        ok(&resound(
+            &[
+                "mesh",
+                "primitive",
+                "bar",
+                "--size",
+                "0.3,0.02,0.01",
+                "-o",
+                "bar.obj",
+            ],
+            d,
+        ));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_resound"))
+            .args([
+                "modal",
+                "bar.obj",
+                "-m",
+                "steel",
+                "--modes",
+                "30",
+                "--resolution",
+                "30",
+            ])
+            .current_dir(d)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Close the reading end before the table is printed (`| head -0`).
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{err}");
+        assert_eq!(out.status.code(), Some(0), "{err}");
+    }
+
+    #[test]
+    fn issue_15_an_output_never_overwrites_an_input_and_outputs_are_checked_first() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        strike_wav(&d.join("x.wav"), 0.05, 24_000);
+        let before = std::fs::read(d.join("x.wav")).unwrap();
+        fails_with(
+            &resound(&["analyze", "x.wav", "--plot", "x.wav"], d),
+            "both an input and an output",
+        );
+        assert_eq!(std::fs::read(d.join("x.wav")).unwrap(), before);
+        fails_with(
+            &resound(
+                &["analyze", "x.wav", "--json", "m.json", "--plot", "m.json"],
+                d,
+            ),
+            "two different outputs",
+        );
+        // A bad second output is found before anything is written.
+        fails_with(
+            &resound(
+                &[
+                    "analyze",
+                    "x.wav",
+                    "--json",
+                    "m.json",
+                    "--plot",
+                    "no/such/dir/p.png",
+                ],
+                d,
+            ),
+            "does not exist",
+        );
+        assert!(!d.join("m.json").exists());
+    }
+
+    #[test]
+    fn issue_15_library_entries_are_replaced_only_with_force() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let m = r#"{"name": "tin", "alpha": 2.0, "beta": 1e-7, "gamma": 2e7, "sigma": 1.0,
+                    "damping_model": "rayleigh", "provenance": null}"#;
+        std::fs::write(d.join("tin.json"), m).unwrap();
+        let import = |extra: &[&str]| {
+            let mut args = vec!["materials", "import", "tin.json", "--library", "lib.sqlite"];
+            args.extend_from_slice(extra);
+            resound(&args, d)
+        };
+        ok(&import(&[]));
+        fails_with(&import(&[]), "--force");
+        ok(&import(&["--force"]));
+    }
+
+    #[test]
+    fn issue_15_read_only_commands_never_create_or_change_a_library() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        ok(&resound(
+            &["materials", "list", "--library", "typo.sqlite"],
+            d,
+        ));
+        assert!(!d.join("typo.sqlite").exists());
+        fails_with(
+            &resound(
+                &["materials", "show", "wood", "--library", "typo.sqlite"],
+                d,
+            ),
+            "no material library",
+        );
+        assert!(!d.join("typo.sqlite").exists());
+        std::fs::write(d.join("notes.txt"), "not a database").unwrap();
+        let out = resound(&["materials", "list", "--library", "notes.txt"], d);
+        assert_eq!(out.status.code(), Some(2));
+        assert_eq!(
+            std::fs::read_to_string(d.join("notes.txt")).unwrap(),
+            "not a database"
+        );
+    }
+
+    #[test]
+    fn issue_15_strikes_count_from_1_durations_need_a_sample_and_scales_are_bounded() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        strike_wav(&d.join("x.wav"), 0.05, 24_000);
+        fails_with(
+            &resound(&["analyze", "x.wav", "--strike", "10"], d),
+            "strike 10 requested",
+        );
+        ok(&resound(&["analyze", "x.wav", "--json", "modes.json"], d));
+        fails_with(
+            &resound(
+                &[
+                    "synth",
+                    "--modes",
+                    "modes.json",
+                    "--duration",
+                    "1e-6",
+                    "-o",
+                    "s.wav",
+                ],
+                d,
+            ),
+            "one sample",
+        );
+        assert!(!d.join("s.wav").exists());
+        ok(&resound(
+            &[
+                "mesh",
+                "primitive",
+                "bar",
+                "--size",
+                "0.3,0.02,0.01",
+                "-o",
+                "bar.obj",
+            ],
+            d,
+        ));
+        fails_with(
+            &resound(&["modal", "bar.obj", "-m", "steel", "--scale", "1e30"], d),
+            "scale must be within",
+        );
+    }
+}

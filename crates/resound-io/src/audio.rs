@@ -62,6 +62,52 @@ impl AudioClip {
     }
 }
 
+/// Symphonia 0.5 panics on a WAV whose `fmt ` chunk says 0 Hz or 0 channels (it builds a time
+/// base from them before any check): read those two fields first and refuse such files.
+/// Anything that is not RIFF/WAVE, or too short to tell, is left to the decoder.
+fn check_wav_header(mut file: &std::fs::File, path: &Path) -> Result<()> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut head = [0u8; 4096];
+    let mut n = 0;
+    while n < head.len() {
+        match file.read(&mut head[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) => return Err(io_err(path, e)),
+        }
+    }
+    file.seek(SeekFrom::Start(0)).map_err(|e| io_err(path, e))?;
+    let head = &head[..n];
+    if head.len() < 12 || &head[..4] != b"RIFF" || &head[8..12] != b"WAVE" {
+        return Ok(());
+    }
+    let mut at = 12;
+    while at + 8 <= head.len() {
+        let id = &head[at..at + 4];
+        let len =
+            u32::from_le_bytes([head[at + 4], head[at + 5], head[at + 6], head[at + 7]]) as usize;
+        if id == b"fmt " {
+            let f = &head[at + 8..];
+            if f.len() < 8 {
+                return Ok(());
+            }
+            let channels = u16::from_le_bytes([f[2], f[3]]);
+            let rate = u32::from_le_bytes([f[4], f[5], f[6], f[7]]);
+            if channels == 0 || rate == 0 {
+                return Err(parse_err(
+                    path,
+                    format!(
+                        "WAV header: {rate} Hz, {channels} channel(s) — not a usable recording"
+                    ),
+                ));
+            }
+            return Ok(());
+        }
+        at += 8 + len + (len & 1);
+    }
+    Ok(())
+}
+
 /// Decodes an audio file (WAV PCM 8/16/24/32 and float 32/64, FLAC, OGG Vorbis, MP3).
 ///
 /// # Errors
@@ -69,6 +115,7 @@ impl AudioClip {
 /// unknown formats; [`crate::IoError::Parse`] for corrupt or truncated data and files with no samples.
 pub fn load_audio(path: &Path) -> Result<AudioClip> {
     let file = std::fs::File::open(path).map_err(|e| io_err(path, e))?;
+    check_wav_header(&file, path)?;
     let mss = MediaSourceStream::new(Box::new(file), Default::default());
     let mut hint = Hint::new();
     if let Some(ext) = path.extension().and_then(|e| e.to_str()) {

@@ -74,6 +74,38 @@ impl Library {
         })
     }
 
+    /// Opens an existing library for reading only: `None` when there is no file at `path` (a
+    /// read never creates one), an error for a file that is not a Resound library (it is left
+    /// untouched).
+    ///
+    /// # Errors
+    /// SQLite errors; a file without the materials table.
+    pub fn open_read_only(path: &Path) -> Result<Option<Self>> {
+        if !path.exists() {
+            return Ok(None);
+        }
+        let conn = Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
+            .map_err(|e| db_err(path, e))?;
+        let has_table: bool = conn
+            .query_row(
+                "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'materials'",
+                [],
+                |r| r.get::<_, i64>(0),
+            )
+            .map_err(|e| db_err(path, e))?
+            > 0;
+        if !has_table {
+            return Err(parse_err(
+                path,
+                "not a Resound material library (no materials table)",
+            ));
+        }
+        Ok(Some(Self {
+            conn,
+            path: path.to_path_buf(),
+        }))
+    }
+
     /// Names, sorted.
     pub fn names(&self) -> Result<Vec<String>> {
         let mut st = self

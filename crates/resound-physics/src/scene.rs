@@ -21,6 +21,12 @@ const SLIP_MIN_SPEED: f64 = 0.01;
 const MOVE_MIN_SPEED: f64 = 0.02;
 /// Force ring per body, samples.
 const FORCE_RING: usize = 1 << 14;
+/// Fastest initial speed of a body, m/s (three times the speed of sound).
+const MAX_SPEED_M_S: f64 = 1000.0;
+/// Fastest initial spin of a body, rad/s.
+const MAX_SPIN_RAD_S: f64 = 1.0e4;
+/// Farthest a body may start from the origin, m.
+const MAX_EXTENT_M: f64 = 1.0e4;
 /// Longest propagation delay, s (sources beyond 343 m are held there).
 const MAX_DELAY_S: f64 = 1.0;
 /// Continuous contacts are logged at most this often, s.
@@ -135,6 +141,20 @@ fn check_body(b: &BodySpec) -> Result<(), SceneError> {
         return Err(err(
             "position, rotation and velocities must be finite".into()
         ));
+    }
+    // rapier works in f32 and silently stops integrating absurd states (a ball thrown at
+    // 1e30 m/s just fell straight down): refuse what no contact-sound scene needs.
+    let norm = |a: &[f64; 3]| a.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if norm(&b.linvel) > MAX_SPEED_M_S
+        || norm(&b.angvel) > MAX_SPIN_RAD_S
+        || norm(&b.position) > MAX_EXTENT_M
+    {
+        return Err(err(format!(
+            "velocity must be at most {MAX_SPEED_M_S} m/s, angular velocity at most {MAX_SPIN_RAD_S} rad/s and the position within {MAX_EXTENT_M} m of the origin (got |v| = {:.3e} m/s, |ω| = {:.3e} rad/s, |x| = {:.3e} m)",
+            norm(&b.linvel),
+            norm(&b.angvel),
+            norm(&b.position)
+        )));
     }
     if !((0.0..=1.0).contains(&b.restitution) && b.friction >= 0.0 && b.friction.is_finite()) {
         return Err(err(format!(

@@ -247,6 +247,46 @@ fn bad_bodies_and_settings_are_named() {
     assert!(simulate(&[floor()], &params(-1.0), &|_| {}).is_err());
 }
 
+/// Issue 15, item 5: a ball thrown at 1e30 m/s used to fall straight down (rapier gives up on
+/// such states in f32) and the scene rendered as if nothing were wrong.
+#[test]
+fn issue_15_absurd_velocities_are_errors_not_ignored() {
+    let ball = |v: [f64; 3], w: [f64; 3]| BodySpec {
+        name: "ball".into(),
+        shape: Shape::Ball(0.02),
+        fixed: false,
+        density: 7800.0,
+        position: [0.0, 0.5, 0.0],
+        linvel: v,
+        angvel: w,
+        ..floor()
+    };
+    let e = simulate(
+        &[floor(), ball([1e30, 0.0, 0.0], [0.0; 3])],
+        &params(0.5),
+        &|_| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("ball") && e.contains("velocity") && e.contains("1.000e30"),
+        "{e}"
+    );
+    assert!(simulate(
+        &[floor(), ball([0.0; 3], [0.0, 0.0, 1e9])],
+        &params(0.5),
+        &|_| {}
+    )
+    .is_err());
+    // A fast but physical throw still runs.
+    assert!(simulate(
+        &[floor(), ball([30.0, 0.0, 0.0], [0.0; 3])],
+        &params(0.5),
+        &|_| {}
+    )
+    .is_ok());
+}
+
 /// A grain dictionary of a synthetic knock recording and a synthetic rolling/sliding one.
 fn grains() -> resound_physics::GrainSound {
     use resound_grains::{analyze, Contact, Recording};

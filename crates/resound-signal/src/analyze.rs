@@ -104,9 +104,9 @@ pub enum AnalyzeError {
     #[error("sample rate {0} Hz is outside the supported 8000–192000 Hz")]
     SampleRate(f64),
     /// `strike` beyond the strikes found.
-    #[error("strike {requested} requested but only {found} strike(s) found")]
+    #[error("strike {} requested (counting from 1) but only {found} strike(s) found", requested + 1)]
     NoSuchStrike {
-        /// Requested index (0-based).
+        /// Requested index (0-based; the message counts from 1).
         requested: usize,
         /// Strikes found.
         found: usize,

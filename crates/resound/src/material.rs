@@ -27,6 +27,21 @@ pub fn open_library(path: Option<&Path>) -> Result<Library> {
     })
 }
 
+/// The library at `path` (or the default one) for reading: `None` when it does not exist yet.
+/// Never creates or changes a file.
+///
+/// # Errors
+/// A file that is not a library; no home directory for the default.
+pub fn read_library(path: Option<&Path>) -> Result<Option<Library>> {
+    let path: PathBuf = match path {
+        Some(p) => p.to_path_buf(),
+        None => default_library_path().ok_or_else(|| {
+            invalid("no home directory for the default library; pass --library PATH")
+        })?,
+    };
+    Ok(Library::open_read_only(&path)?)
+}
+
 /// A library entry by name; a missing name lists the known ones.
 ///
 /// # Errors
@@ -122,7 +137,15 @@ pub struct EstimateMaterialParams {
     pub recording_name: String,
     /// Recorded in the material's provenance.
     pub object_name: String,
+    /// Keep an estimate whose parameters are not credible (β at the optimizer's floor, γ outside
+    /// the range of solids) as a warning instead of an error.
+    pub allow_implausible: bool,
 }
+
+/// Smallest β the optimizer can express, s (it searches ln β; a start at β = 0 begins here).
+pub const BETA_FLOOR_S: f64 = 1e-14;
+/// γ = E/ρ of solids, m²/s²: from soft rubber (1 MPa / 1000 kg/m³) to diamond (1 TPa / 3500).
+pub const GAMMA_RANGE_M2_S2: (f64, f64) = (1e3, 3e8);
 
 impl Default for EstimateMaterialParams {
     fn default() -> Self {
@@ -133,6 +156,7 @@ impl Default for EstimateMaterialParams {
             max_residual_s: 1.0,
             recording_name: String::new(),
             object_name: String::new(),
+            allow_implausible: false,
         }
     }
 }
@@ -215,6 +239,25 @@ pub fn estimate_material(
         )));
     }
     let p = est.params;
+    let mut implausible = Vec::new();
+    if p.beta <= BETA_FLOOR_S {
+        implausible.push(format!(
+            "β = {:.1e} s sits at the optimizer's floor: the recording's decay rates do not grow with frequency as stiffness damping does (noise before the strike, a wrong object, or a wrong hit point)",
+            p.beta
+        ));
+    }
+    if !(GAMMA_RANGE_M2_S2.0..=GAMMA_RANGE_M2_S2.1).contains(&p.gamma) {
+        implausible.push(format!(
+            "γ = E/ρ = {:.3e} m²/s² is outside the range of solids ({:.0e}–{:.0e}): the object's modes cannot be matched to the recording's (check its size, --scale and the hit)",
+            p.gamma, GAMMA_RANGE_M2_S2.0, GAMMA_RANGE_M2_S2.1
+        ));
+    }
+    if !implausible.is_empty() && !params.allow_implausible {
+        return Err(invalid(format!(
+            "the estimate is not credible: {} (keep it anyway with --allow-implausible)",
+            implausible.join("; ")
+        )));
+    }
     let estimated = resound_estimate::forward_modes(
         &side.eigenvalues0,
         &side.gains0,
@@ -228,7 +271,7 @@ pub fn estimate_material(
         r.samples.truncate((params.max_residual_s * fs) as usize);
         r
     });
-    let mut warnings = Vec::new();
+    let mut warnings = implausible;
     let band_top = analysis.modes.iter().map(|m| m.freq_hz).fold(0.0, f64::max);
     let lowest = model.freq_hz(0) * (p.gamma / side.gamma0).sqrt();
     if lowest > band_top {

@@ -50,6 +50,11 @@ pub fn solve_mesh_file(
     params: &ModalParams,
     progress: &(dyn Fn(Stage) + Sync),
 ) -> Result<ModalSolution> {
+    if !(1e-6..=1e6).contains(&scale) {
+        return Err(crate::error::invalid(format!(
+            "scale must be within 1e-6–1e6 (0.001 reads millimetres), got {scale}"
+        )));
+    }
     let mesh = load_mesh(path, scale)?;
     let geometry = match &mesh {
         LoadedMesh::Surface(s) => Geometry::Surface(s),

@@ -452,7 +452,7 @@ pub fn render_scene(
 ) -> Result<SceneRender> {
     let t0 = std::time::Instant::now();
     let scene = resound_io::scene::read_scene(path)?;
-    let library = crate::material::open_library(params.library.as_deref())?;
+    let library = crate::material::read_library(params.library.as_deref())?;
     let base_dir = path
         .parent()
         .map_or_else(|| PathBuf::from("."), PathBuf::from);
@@ -460,7 +460,7 @@ pub fn render_scene(
         &scene,
         &BuildOptions {
             base_dir: &base_dir,
-            library: Some(&library),
+            library: library.as_ref(),
             cache_dir: params.cache_dir.clone(),
             progress: stage,
         },

@@ -116,9 +116,9 @@ fn check(p: &StrikeParams) -> Result<()> {
             p.sample_rate_hz
         )));
     }
-    if !(p.duration_s > 0.0 && p.duration_s <= 600.0) {
+    if !(p.duration_s > 0.0 && p.duration_s <= 600.0) || (p.duration_s * fs).round() < 1.0 {
         return Err(invalid(format!(
-            "duration must be in (0, 600] s, got {}",
+            "duration must be in (0, 600] s and at least one sample, got {}",
             p.duration_s
         )));
     }

@@ -264,3 +264,32 @@ fn material_library_round_trip() {
     std::fs::write(&junk, vec![7u8; 4096]).unwrap();
     assert!(Library::open(&junk).is_err());
 }
+
+/// Issue 15: a WAV header that says 0 Hz (or 0 channels) made Symphonia panic in analyze,
+/// estimate and grains.
+#[test]
+fn issue_15_a_wav_header_with_0_hz_or_0_channels_is_an_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    for (channels, rate) in [(1u16, 0u32), (0, 48_000)] {
+        let data = [0u8; 2000];
+        let mut fmt = Vec::new();
+        fmt.extend_from_slice(&1u16.to_le_bytes()); // PCM
+        fmt.extend_from_slice(&channels.to_le_bytes());
+        fmt.extend_from_slice(&rate.to_le_bytes());
+        fmt.extend_from_slice(&(rate * 2).to_le_bytes());
+        fmt.extend_from_slice(&2u16.to_le_bytes());
+        fmt.extend_from_slice(&16u16.to_le_bytes());
+        let mut wav = b"RIFF".to_vec();
+        wav.extend_from_slice(&((4 + 8 + fmt.len() + 8 + data.len()) as u32).to_le_bytes());
+        wav.extend_from_slice(b"WAVEfmt ");
+        wav.extend_from_slice(&(fmt.len() as u32).to_le_bytes());
+        wav.extend_from_slice(&fmt);
+        wav.extend_from_slice(b"data");
+        wav.extend_from_slice(&(data.len() as u32).to_le_bytes());
+        wav.extend_from_slice(&data);
+        let p = dir.path().join("bad.wav");
+        std::fs::write(&p, &wav).unwrap();
+        let e = resound_io::load_audio(&p).unwrap_err().to_string();
+        assert!(e.contains("WAV header"), "{e}");
+    }
+}
