@@ -1252,4 +1252,13 @@ mod regression {
             "scale must be within",
         );
     }
+
+    #[test]
+    fn issue_15_an_os_error_is_reported_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = resound(&["analyze", "missing.wav"], dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2));
+        assert_eq!(err.matches("No such file").count(), 1, "{err}");
+    }
 }

@@ -35,12 +35,13 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum IoError {
     /// The OS refused.
-    #[error("{path}: {source}")]
+    // Not a `source` field: `{:#}` chains would print the OS message twice.
+    #[error("{path}: {error}")]
     Io {
         /// The file.
         path: PathBuf,
         /// The cause.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The content is malformed.
     #[error("{path}: {msg}")]
@@ -68,9 +69,9 @@ pub(crate) fn parse_err(path: &std::path::Path, msg: impl Into<String>) -> IoErr
     }
 }
 
-pub(crate) fn io_err(path: &std::path::Path, source: std::io::Error) -> IoError {
+pub(crate) fn io_err(path: &std::path::Path, error: std::io::Error) -> IoError {
     IoError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     }
 }

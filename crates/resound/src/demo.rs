@@ -67,7 +67,7 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
     let dir = &p.out_dir;
     std::fs::create_dir_all(dir).map_err(|e| resound_io::IoError::Io {
         path: dir.clone(),
-        source: e,
+        error: e,
     })?;
     let mut report = DemoReport::default();
     let done = |name: String, t: Instant, report: &mut DemoReport| {

@@ -12,7 +12,7 @@ fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|e| {
         Error::from(resound_io::IoError::Io {
             path: path.to_path_buf(),
-            source: e,
+            error: e,
         })
     })
 }
@@ -127,7 +127,7 @@ pub fn import_pyimpact(dir: &Path) -> Result<Vec<(String, ModeStatistics)>> {
     let io = |e: std::io::Error| {
         Error::from(resound_io::IoError::Io {
             path: dir.to_path_buf(),
-            source: e,
+            error: e,
         })
     };
     let mut entries: Vec<std::path::PathBuf> = std::fs::read_dir(dir)

@@ -15,7 +15,7 @@ pub fn read_trajectory(path: &Path) -> Result<Vec<(f64, f64)>> {
     let text = std::fs::read_to_string(path).map_err(|e| {
         Error::from(resound_io::IoError::Io {
             path: path.to_path_buf(),
-            source: e,
+            error: e,
         })
     })?;
     let mut out: Vec<(f64, f64)> = Vec::new();
