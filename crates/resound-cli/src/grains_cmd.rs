@@ -2,7 +2,6 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use indicatif::{ProgressBar, ProgressStyle};
 use resound::grain_files::{analyze_to_file, load_recordings, recording_index, summary, KindRule};
 use resound::grains::quality::spectral_convergence_db;
 use resound::grains::resynth::{resynthesize, ResynthParams};
@@ -113,15 +112,6 @@ impl KindArg {
     }
 }
 
-fn progress_bar() -> ProgressBar {
-    let pb = ProgressBar::new(1000);
-    pb.set_style(
-        ProgressStyle::with_template("{prefix:>9} [{elapsed}] {bar:30} {percent}%")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    pb
-}
-
 /// Runs `grains`.
 pub fn run(c: GrainsCmd) -> Result<()> {
     match c {
@@ -143,14 +133,14 @@ pub fn run(c: GrainsCmd) -> Result<()> {
             params.segment.min_db = a.min_db;
             params.pattern.peaks_per_part = a.peaks;
             params.pattern.min_corr = a.min_corr;
-            let pb = progress_bar();
+            let pb = crate::util::stages("grains");
             let report = |s: Stage, f: f64| {
-                pb.set_prefix(match s {
+                let prefix = match s {
                     Stage::Split => "SMS",
                     Stage::Grains => "grains",
                     Stage::Patterns => "patterns",
-                });
-                pb.set_position((f * 1000.0) as u64);
+                };
+                pb.set_stage(prefix, (f * 1000.0) as u64);
             };
             let made = analyze_to_file(&recs, fs, &params, a.prune, &a.output, &report);
             pb.finish_and_clear();

@@ -33,8 +33,70 @@ pub fn parse_list(s: &str) -> Result<Vec<f64>> {
     Ok(v)
 }
 
-/// A spinner on stderr (hidden when stderr is not a terminal).
-pub fn spinner(label: &str) -> ProgressBar {
+/// Progress on stderr: an indicatif spinner or bar on a terminal, and plain `label: message`
+/// lines (at most one every 2 s, and the last) in a log, where indicatif would draw nothing
+/// and a 30 s estimate would look hung.
+pub struct Progress {
+    pb: ProgressBar,
+    label: String,
+    /// `Some` in plain mode: when the last line was printed.
+    plain: Option<std::sync::Mutex<std::time::Instant>>,
+}
+
+impl Progress {
+    fn new(pb: ProgressBar, label: &str) -> Self {
+        use std::io::IsTerminal;
+        let plain = (!std::io::stderr().is_terminal())
+            .then(|| std::sync::Mutex::new(std::time::Instant::now() - Duration::from_secs(10)));
+        Self {
+            pb,
+            label: label.to_string(),
+            plain,
+        }
+    }
+
+    fn line(&self, msg: &str) {
+        if let Some(last) = &self.plain {
+            if let Ok(mut t) = last.lock() {
+                if t.elapsed() >= Duration::from_secs(2) {
+                    *t = std::time::Instant::now();
+                    eprintln!("{}: {msg}", self.label);
+                }
+            }
+        }
+    }
+
+    /// Sets the message.
+    pub fn set_message(&self, msg: impl Into<String>) {
+        let msg = msg.into();
+        self.line(&msg);
+        self.pb.set_message(msg);
+    }
+
+    /// Advances a bar by `n`.
+    pub fn inc(&self, n: u64) {
+        self.pb.inc(n);
+        if self.plain.is_some() {
+            let len = self.pb.length().unwrap_or(0);
+            self.line(&format!("{}/{len}", self.pb.position()));
+        }
+    }
+
+    /// Moves a bar of 1000 steps to `pos` under the stage name `prefix`.
+    pub fn set_stage(&self, prefix: &'static str, pos: u64) {
+        self.pb.set_prefix(prefix);
+        self.pb.set_position(pos);
+        self.line(&format!("{prefix} {:.0}%", pos as f64 / 10.0));
+    }
+
+    /// Removes the spinner or bar.
+    pub fn finish_and_clear(&self) {
+        self.pb.finish_and_clear();
+    }
+}
+
+/// A spinner on stderr that follows solver stages.
+pub fn spinner(label: &str) -> Progress {
     let pb = ProgressBar::new_spinner();
     pb.set_style(
         ProgressStyle::with_template("{spinner} {prefix} [{elapsed}] {msg}")
@@ -42,11 +104,11 @@ pub fn spinner(label: &str) -> ProgressBar {
     );
     pb.set_prefix(label.to_string());
     pb.enable_steady_tick(Duration::from_millis(120));
-    pb
+    Progress::new(pb, label)
 }
 
 /// A bar of `len` steps on stderr: `{pos}/{len} {unit}`.
-pub fn bar(label: &str, len: u64, unit: &str) -> ProgressBar {
+pub fn bar(label: &str, len: u64, unit: &str) -> Progress {
     let pb = ProgressBar::new(len);
     pb.set_style(
         ProgressStyle::with_template(&format!(
@@ -55,11 +117,21 @@ pub fn bar(label: &str, len: u64, unit: &str) -> ProgressBar {
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     pb.set_prefix(label.to_string());
-    pb
+    Progress::new(pb, label)
+}
+
+/// A bar of 1000 steps whose prefix names the stage.
+pub fn stages(label: &str) -> Progress {
+    let pb = ProgressBar::new(1000);
+    pb.set_style(
+        ProgressStyle::with_template("{prefix:>9} [{elapsed}] {bar:30} {percent}%")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    Progress::new(pb, label)
 }
 
 /// Maps solver stages onto a spinner message.
-pub fn stage_message(pb: &ProgressBar, s: Stage) {
+pub fn stage_message(pb: &Progress, s: Stage) {
     match s {
         Stage::Factorizing => pb.set_message("factorizing K - sigma*M"),
         Stage::Lanczos { applications } => {

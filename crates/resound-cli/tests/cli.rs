@@ -1261,4 +1261,27 @@ mod regression {
         assert_eq!(out.status.code(), Some(2));
         assert_eq!(err.matches("No such file").count(), 1, "{err}");
     }
+
+    #[test]
+    fn issue_15_long_steps_print_plain_progress_lines_in_a_log() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        ok(&resound(
+            &[
+                "mesh",
+                "primitive",
+                "bar",
+                "--size",
+                "0.3,0.02,0.01",
+                "-o",
+                "bar.obj",
+            ],
+            d,
+        ));
+        // stderr is a pipe here, as in a log: indicatif draws nothing, so plain lines must come.
+        let out = resound(&["modal", "bar.obj", "-m", "steel", "--modes", "5"], d);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{err}");
+        assert!(err.lines().any(|l| l.starts_with("modal: ")), "{err}");
+    }
 }

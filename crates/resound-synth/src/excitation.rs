@@ -74,7 +74,14 @@ impl Impact {
             Ok(())
         } else {
             Err(SynthError::Parameter(format!(
-                "impact parameters out of range (masses, radius, moduli > 0; 0 ≤ ν < 0.5; 0 ≤ speed < 1000 m/s): {self:?}"
+                "impact parameters out of range (masses, radius, moduli > 0; 0 ≤ ν < 0.5; 0 ≤ speed < 1000 m/s): impactor {} kg, radius {} m, E {} Pa and ν {} against E {} Pa and ν {}, speed {} m/s",
+                self.impactor_mass_kg,
+                self.impactor_radius_m,
+                self.impactor.youngs_modulus,
+                self.impactor.poisson_ratio,
+                self.object.youngs_modulus,
+                self.object.poisson_ratio,
+                self.speed_m_s
             )))
         }
     }
