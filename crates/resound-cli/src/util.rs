@@ -4,7 +4,6 @@ use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use resound::modal::Stage;
 use serde::Serialize;
-use std::path::Path;
 use std::time::Duration;
 
 /// Parses `x,y,z`.
@@ -155,39 +154,7 @@ pub fn warn_all(warnings: &[String]) {
     }
 }
 
-/// Checks output paths before any work: each output's directory exists, no output is one of
-/// the inputs (an `analyze x.wav --plot x.wav` would destroy the recording), and no two outputs
-/// coincide. `-` (stdout) is not a path.
-pub fn check_paths(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
-    let canon = |p: &Path| std::fs::canonicalize(p).ok();
-    let outputs: Vec<&Path> = outputs
-        .iter()
-        .copied()
-        .filter(|o| o.as_os_str() != "-")
-        .collect();
-    for (k, o) in outputs.iter().enumerate() {
-        let dir = o
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        if !dir.is_dir() {
-            bail!(
-                "cannot write {}: the directory {} does not exist",
-                o.display(),
-                dir.display()
-            );
-        }
-        let same = |a: &Path, b: &Path| a == b || canon(a).is_some_and(|c| Some(c) == canon(b));
-        if let Some(i) = inputs.iter().find(|i| same(i, o)) {
-            bail!(
-                "{} is both an input and an output; refusing to overwrite {}",
-                o.display(),
-                i.display()
-            );
-        }
-        if outputs[k + 1..].iter().any(|o2| same(o2, o)) {
-            bail!("{} is given as two different outputs", o.display());
-        }
-    }
-    Ok(())
+/// Checks output paths before any work ([`resound::files::check_outputs`]).
+pub fn check_paths(inputs: &[&std::path::Path], outputs: &[&std::path::Path]) -> Result<()> {
+    Ok(resound::files::check_outputs(inputs, outputs)?)
 }

@@ -154,3 +154,43 @@ pub fn import_pyimpact(dir: &Path) -> Result<Vec<(String, ModeStatistics)>> {
     }
     Ok(out)
 }
+
+/// Checks output paths before any work (so nothing is half done when one is bad): each output's directory exists, no output is one of
+/// the inputs (an `analyze x.wav --plot x.wav` would destroy the recording), and no two outputs
+/// coincide. `-` (stdout) is not a path.
+pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
+    let canon = |p: &Path| std::fs::canonicalize(p).ok();
+    let outputs: Vec<&Path> = outputs
+        .iter()
+        .copied()
+        .filter(|o| o.as_os_str() != "-")
+        .collect();
+    for (k, o) in outputs.iter().enumerate() {
+        let dir = o
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        if !dir.is_dir() {
+            return Err(invalid(format!(
+                "cannot write {}: the directory {} does not exist",
+                o.display(),
+                dir.display()
+            )));
+        }
+        let same = |a: &Path, b: &Path| a == b || canon(a).is_some_and(|c| Some(c) == canon(b));
+        if let Some(i) = inputs.iter().find(|i| same(i, o)) {
+            return Err(invalid(format!(
+                "{} is both an input and an output; refusing to overwrite {}",
+                o.display(),
+                i.display()
+            )));
+        }
+        if outputs[k + 1..].iter().any(|o2| same(o2, o)) {
+            return Err(invalid(format!(
+                "{} is given as two different outputs",
+                o.display()
+            )));
+        }
+    }
+    Ok(())
+}
