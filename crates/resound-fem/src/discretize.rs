@@ -303,6 +303,10 @@ pub fn discretize_surface(
         asm.add(&mut kv, e, &ke);
         asm.add(&mut mv, e, &me);
     }
+    // The surface that reports the shapes, refined to at most two voxels per edge so that it
+    // samples the FE solution wherever it is struck (issue 15: a primitive's corners alone
+    // made a bar's centre move like its ends).
+    let surface = surface.refined(2.0 * h.iter().copied().fold(0.0, f64::max));
     // Surface vertices: trilinear interpolation in the containing voxel, or in the nearest
     // inside voxel after clamping the vertex onto it (vertices just outside the staircase).
     let mut interp_ptr = vec![0];

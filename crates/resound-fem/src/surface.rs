@@ -304,6 +304,90 @@ impl SurfaceMesh {
         Ok(())
     }
 
+    /// Splits edges longer than `max_edge_m` at their midpoints (shared by both triangles)
+    /// until none is, keeping the mesh conforming and oriented: a triangle with one, two or
+    /// three long edges becomes two, three or four. Mode shapes are reported at the vertices
+    /// and interpolated linearly between them, so a primitive's 8 corner vertices would make
+    /// a bar's centre sound like its ends; refined to the voxel scale, the surface samples the
+    /// FE solution wherever it is struck.
+    pub fn refined(&self, max_edge_m: f64) -> SurfaceMesh {
+        let mut m = self.clone();
+        if !(max_edge_m > 0.0 && max_edge_m.is_finite()) {
+            return m;
+        }
+        let len2 = |v: &[[f64; 3]], a: u32, b: u32| {
+            let (p, q) = (v[a as usize], v[b as usize]);
+            (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>()
+        };
+        let limit2 = max_edge_m * max_edge_m;
+        // Each pass at least halves every long edge; 60 passes cover any finite ratio.
+        for _ in 0..60 {
+            let mut mid: std::collections::HashMap<(u32, u32), u32> =
+                std::collections::HashMap::new();
+            for t in &m.triangles {
+                for k in 0..3 {
+                    let (a, b) = (t[k], t[(k + 1) % 3]);
+                    if len2(&m.vertices, a, b) > limit2 {
+                        let key = (a.min(b), a.max(b));
+                        if !mid.contains_key(&key) {
+                            let (p, q) = (m.vertices[a as usize], m.vertices[b as usize]);
+                            m.vertices.push([
+                                0.5 * (p[0] + q[0]),
+                                0.5 * (p[1] + q[1]),
+                                0.5 * (p[2] + q[2]),
+                            ]);
+                            mid.insert(key, (m.vertices.len() - 1) as u32);
+                        }
+                    }
+                }
+            }
+            if mid.is_empty() {
+                break;
+            }
+            let mut tris = Vec::with_capacity(m.triangles.len() * 2);
+            for &t in &m.triangles {
+                let mark = |a: u32, b: u32| mid.get(&(a.min(b), a.max(b))).copied();
+                // Rotate so that the marked edges come first: (v0 v1), then (v1 v2).
+                let mut v = t;
+                let mut marks = [mark(v[0], v[1]), mark(v[1], v[2]), mark(v[2], v[0])];
+                let count = marks.iter().filter(|x| x.is_some()).count();
+                for _ in 0..3 {
+                    let ok = match count {
+                        1 => marks[0].is_some(),
+                        2 => marks[2].is_none(),
+                        _ => true,
+                    };
+                    if ok {
+                        break;
+                    }
+                    v = [v[1], v[2], v[0]];
+                    marks = [marks[1], marks[2], marks[0]];
+                }
+                match (count, marks) {
+                    (0, _) => tris.push(v),
+                    (1, [Some(m01), _, _]) => {
+                        tris.push([v[0], m01, v[2]]);
+                        tris.push([m01, v[1], v[2]]);
+                    }
+                    (2, [Some(m01), Some(m12), None]) => {
+                        tris.push([m01, v[1], m12]);
+                        tris.push([v[0], m01, m12]);
+                        tris.push([v[0], m12, v[2]]);
+                    }
+                    (_, [Some(m01), Some(m12), Some(m20)]) => {
+                        tris.push([v[0], m01, m20]);
+                        tris.push([m01, v[1], m12]);
+                        tris.push([m20, m12, v[2]]);
+                        tris.push([m01, m12, m20]);
+                    }
+                    _ => tris.push(v),
+                }
+            }
+            m.triangles = tris;
+        }
+        m
+    }
+
     /// Boundary loops as vertex sequences (each edge used by exactly one triangle).
     pub fn boundary_loops(&self) -> Vec<Vec<u32>> {
         let counts = self.edge_counts();

@@ -36,39 +36,13 @@ pub struct BuildOptions<'a> {
     pub progress: &'a dyn Fn(&str),
 }
 
-/// Splits every triangle into four (midpoints shared), `times` times: boxes get vertices on
-/// their faces, so excitation can follow the contact point.
-fn subdivide(mut m: SurfaceMesh, times: usize) -> SurfaceMesh {
-    for _ in 0..times {
-        let mut mid = std::collections::HashMap::new();
-        let mut tris = Vec::with_capacity(m.triangles.len() * 4);
-        let mut midpoint = |a: u32, b: u32, v: &mut Vec<[f64; 3]>| {
-            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                let (p, q) = (v[a as usize], v[b as usize]);
-                v.push([
-                    0.5 * (p[0] + q[0]),
-                    0.5 * (p[1] + q[1]),
-                    0.5 * (p[2] + q[2]),
-                ]);
-                (v.len() - 1) as u32
-            })
-        };
-        for t in m.triangles.clone() {
-            let ab = midpoint(t[0], t[1], &mut m.vertices);
-            let bc = midpoint(t[1], t[2], &mut m.vertices);
-            let ca = midpoint(t[2], t[0], &mut m.vertices);
-            tris.extend([[t[0], ab, ca], [ab, t[1], bc], [ca, bc, t[2]], [ab, bc, ca]]);
-        }
-        m.triangles = tris;
-    }
-    m
-}
-
 /// The surface mesh and collider shape of a body, in the body frame.
 fn geometry(b: &BodyFile, base_dir: &Path) -> Result<(SurfaceMesh, Shape)> {
     Ok(match &b.shape {
         ShapeFile::Box(s) | ShapeFile::Plate(s) => (
-            subdivide(primitive::bar(*s), 2),
+            // The modal solve refines the surface to the voxel scale (fem), so contacts anywhere
+            // on a face find the mode shapes there.
+            primitive::bar(*s),
             Shape::Cuboid([0.5 * s[0], 0.5 * s[1], 0.5 * s[2]]),
         ),
         ShapeFile::Sphere(r) => (primitive::sphere(*r, 24), Shape::Ball(*r)),

@@ -357,3 +357,60 @@ fn hit_gain_matches_beam_theory_at_the_free_end() {
     // Off-surface hit points are refused.
     assert!(m.locate_hit([0.0, 0.0, 0.5], 0.01).is_err());
 }
+
+/// Free–free Euler–Bernoulli shape of the first bending mode at ξ = x/L ∈ [0, 1].
+fn free_free_first_bending(xi: f64) -> f64 {
+    let b: f64 = 4.730_040_745;
+    let s = (b.cosh() - b.cos()) / (b.sinh() - b.sin());
+    (b * xi).cosh() + (b * xi).cos() - s * ((b * xi).sinh() + (b * xi).sin())
+}
+
+/// Issue 15, item 1: the primitive bar has 8 corner vertices and gains were interpolated
+/// between them, so the centre (an antinode of the first bending mode) sounded like the end
+/// and the nodes were missed. Gains must follow the mode shape along the bar: sign and relative
+/// magnitude against Euler–Bernoulli, and not depend on how the same surface is tessellated.
+#[test]
+fn issue_15_gains_follow_the_bending_shape_along_a_primitive_bar() {
+    let p = ModalParams {
+        n_modes: Some(4),
+        resolution: 60,
+        sturm_check: false,
+        ..Default::default()
+    };
+    let coarse = ModalBuilder::surface(&primitive::bar(SIZE), &steel())
+        .params(p.clone())
+        .solve()
+        .unwrap()
+        .model;
+    let gain = |m: &resound_core::ModalModel, x: f64| m.hit([x, 0.0, 0.005]).unwrap().gains[0];
+    let end = gain(&coarse, -0.15);
+    let e0 = free_free_first_bending(0.0);
+    for k in 0..=12 {
+        let x = -0.15 + 0.3 * k as f64 / 12.0;
+        let want = free_free_first_bending(k as f64 / 12.0) / e0;
+        let got = gain(&coarse, x) / end;
+        // Relative magnitude within 0.08 of the end's (shear and the staircase cost a little);
+        // that also fixes the sign: the centre moves against the ends, the nodes (ξ = 0.224,
+        // 0.776) stay still.
+        assert!(
+            (got - want).abs() < 0.08,
+            "x = {x:.3}: {got:.3} vs {want:.3}"
+        );
+    }
+    // The same surface tessellated finely gives the same gains.
+    let mut fine = primitive::bar(SIZE);
+    fine = fine.refined(0.004);
+    assert!(fine.vertices.len() > 500);
+    let refined = ModalBuilder::surface(&fine, &steel())
+        .params(p)
+        .solve()
+        .unwrap()
+        .model;
+    for x in [-0.15, -0.1, -0.05, 0.0, 0.033, 0.12] {
+        let (a, b) = (gain(&coarse, x), gain(&refined, x));
+        assert!(
+            (a - b).abs() <= 0.03 * end.abs(),
+            "x = {x}: {a:.4e} vs {b:.4e}"
+        );
+    }
+}
