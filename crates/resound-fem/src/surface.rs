@@ -329,14 +329,14 @@ impl SurfaceMesh {
                     let (a, b) = (t[k], t[(k + 1) % 3]);
                     if len2(&m.vertices, a, b) > limit2 {
                         let key = (a.min(b), a.max(b));
-                        if !mid.contains_key(&key) {
+                        if let std::collections::hash_map::Entry::Vacant(e) = mid.entry(key) {
                             let (p, q) = (m.vertices[a as usize], m.vertices[b as usize]);
                             m.vertices.push([
                                 0.5 * (p[0] + q[0]),
                                 0.5 * (p[1] + q[1]),
                                 0.5 * (p[2] + q[2]),
                             ]);
-                            mid.insert(key, (m.vertices.len() - 1) as u32);
+                            e.insert((m.vertices.len() - 1) as u32);
                         }
                     }
                 }
