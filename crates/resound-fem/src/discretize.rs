@@ -682,8 +682,30 @@ mod tests {
         let mass = 7850.0 * 0.3 * 0.02 * 0.01;
         assert!((f.total_mass_kg() - mass).abs() < 1e-9 * mass);
         assert!((rep.fe_volume_m3 - rep.surface_volume_m3).abs() < 1e-12);
-        // Surface vertices of the box sit on grid nodes: weight 1.
-        assert!(f.interp_weight.iter().all(|&w| (w - 1.0).abs() < 1e-9));
+        // The box's own 8 corners (kept first by the refinement) sit on grid nodes: weight 1.
+        for v in 0..8 {
+            let w = &f.interp_weight[f.interp_ptr[v]..f.interp_ptr[v + 1]];
+            assert!(w.len() == 1 && (w[0] - 1.0).abs() < 1e-9, "{w:?}");
+        }
+        // The refined surface has edges of at most two voxels; every vertex interpolates with
+        // weights summing to 1.
+        let h = rep.voxel_size_m.iter().copied().fold(0.0, f64::max);
+        for t in &f.surface.triangles {
+            for k in 0..3 {
+                let (p, q) = (
+                    f.surface.vertices[t[k] as usize],
+                    f.surface.vertices[t[(k + 1) % 3] as usize],
+                );
+                let l = (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt();
+                assert!(l <= 2.0 * h + 1e-12, "edge {l} > 2 × {h}");
+            }
+        }
+        for v in 0..f.surface.vertices.len() {
+            let sum: f64 = f.interp_weight[f.interp_ptr[v]..f.interp_ptr[v + 1]]
+                .iter()
+                .sum();
+            assert!((sum - 1.0).abs() < 1e-9);
+        }
         let t = discretize_tets(&box_tets([0.3, 0.02, 0.01], [6, 2, 1]), &steel, false).unwrap();
         assert!((t.total_mass_kg() - mass).abs() < 1e-9 * mass);
         assert_eq!(t.surface.repaired(0).unwrap().1, Default::default());
