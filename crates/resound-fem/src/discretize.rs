@@ -303,10 +303,13 @@ pub fn discretize_surface(
         asm.add(&mut kv, e, &ke);
         asm.add(&mut mv, e, &me);
     }
-    // The surface that reports the shapes, refined to at most two voxels per edge so that it
-    // samples the FE solution wherever it is struck (issue 15: a primitive's corners alone
-    // made a bar's centre move like its ends).
-    let surface = surface.refined(2.0 * h.iter().copied().fold(0.0, f64::max));
+    // The surface that reports the shapes, refined so that it samples the FE solution wherever
+    // it is struck (issue 15: a primitive's corners alone made a bar's centre move like its
+    // ends): edges of at most 1/20 of the diagonal (a 300 mm bar: 15 mm, under a quarter of
+    // its shortest bending wavelength at 20 kHz, 67 mm) and never finer than two voxels, so the
+    // file and the scenes' per-vertex gains stay small (the bar: 1 600 vertices, not 8).
+    let surface = surface
+        .refined((2.0 * h.iter().copied().fold(0.0, f64::max)).max(surface.diagonal() / 20.0));
     // Surface vertices: trilinear interpolation in the containing voxel, or in the nearest
     // inside voxel after clamping the vertex onto it (vertices just outside the staircase).
     let mut interp_ptr = vec![0];
@@ -687,9 +690,10 @@ mod tests {
             let w = &f.interp_weight[f.interp_ptr[v]..f.interp_ptr[v + 1]];
             assert!(w.len() == 1 && (w[0] - 1.0).abs() < 1e-9, "{w:?}");
         }
-        // The refined surface has edges of at most two voxels; every vertex interpolates with
-        // weights summing to 1.
-        let h = rep.voxel_size_m.iter().copied().fold(0.0, f64::max);
+        // The refined surface has edges of at most max(2 voxels, diagonal / 20); every vertex
+        // interpolates with weights summing to 1.
+        let h = (rep.voxel_size_m.iter().copied().fold(0.0, f64::max))
+            .max(primitive::bar([0.3, 0.02, 0.01]).diagonal() / 40.0);
         for t in &f.surface.triangles {
             for k in 0..3 {
                 let (p, q) = (

@@ -304,8 +304,8 @@ impl SurfaceMesh {
         Ok(())
     }
 
-    /// Splits edges longer than `max_edge_m` at their midpoints (shared by both triangles)
-    /// until none is, keeping the mesh conforming and oriented: a triangle with one, two or
+    /// Splits the longest edge of every triangle while it is longer than `max_edge_m`, at its
+    /// midpoint (shared by both triangles), until no edge is, keeping the mesh conforming and oriented: a triangle with one, two or
     /// three long edges becomes two, three or four. Mode shapes are reported at the vertices
     /// and interpolated linearly between them, so a primitive's 8 corner vertices would make
     /// a bar's centre sound like its ends; refined to the voxel scale, the surface samples the
@@ -325,7 +325,19 @@ impl SurfaceMesh {
             let mut mid: std::collections::HashMap<(u32, u32), u32> =
                 std::collections::HashMap::new();
             for t in &m.triangles {
-                for k in 0..3 {
+                // Only each triangle's longest edge (Rivara's longest-edge bisection: no
+                // slivers from splitting a long thin triangle across); a neighbour that shares
+                // it is split too, which keeps the mesh conforming.
+                let k = (0..3)
+                    .max_by(|&i, &j| {
+                        len2(&m.vertices, t[i], t[(i + 1) % 3]).total_cmp(&len2(
+                            &m.vertices,
+                            t[j],
+                            t[(j + 1) % 3],
+                        ))
+                    })
+                    .unwrap_or(0);
+                {
                     let (a, b) = (t[k], t[(k + 1) % 3]);
                     if len2(&m.vertices, a, b) > limit2 {
                         let key = (a.min(b), a.max(b));
