@@ -1090,10 +1090,8 @@ mod regression {
     use super::*;
     use std::process::Stdio;
 
-    #[test]
-    fn issue_15_a_closed_pipe_ends_quietly_with_exit_0() {
-        let dir = tempfile::tempdir().unwrap();
-        let d = dir.path();
+    /// The 300 × 20 × 10 mm bar as `bar.obj` in `d`.
+    fn bar_obj(d: &Path) {
         ok(&resound(
             &[
                 "mesh",
@@ -1106,6 +1104,13 @@ mod regression {
             ],
             d,
         ));
+    }
+
+    #[test]
+    fn issue_15_a_closed_pipe_ends_quietly_with_exit_0() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        bar_obj(d);
         let mut child = Command::new(env!("CARGO_BIN_EXE_resound"))
             .args([
                 "modal",
@@ -1235,18 +1240,7 @@ mod regression {
             "one sample",
         );
         assert!(!d.join("s.wav").exists());
-        ok(&resound(
-            &[
-                "mesh",
-                "primitive",
-                "bar",
-                "--size",
-                "0.3,0.02,0.01",
-                "-o",
-                "bar.obj",
-            ],
-            d,
-        ));
+        bar_obj(d);
         fails_with(
             &resound(&["modal", "bar.obj", "-m", "steel", "--scale", "1e30"], d),
             "scale must be within",
@@ -1266,18 +1260,7 @@ mod regression {
     fn issue_15_long_steps_print_plain_progress_lines_in_a_log() {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
-        ok(&resound(
-            &[
-                "mesh",
-                "primitive",
-                "bar",
-                "--size",
-                "0.3,0.02,0.01",
-                "-o",
-                "bar.obj",
-            ],
-            d,
-        ));
+        bar_obj(d);
         // stderr is a pipe here, as in a log: indicatif draws nothing, so plain lines must come.
         let out = resound(&["modal", "bar.obj", "-m", "steel", "--modes", "5"], d);
         let err = String::from_utf8_lossy(&out.stderr);

@@ -33,6 +33,18 @@ pub fn default_library_path() -> Option<PathBuf> {
     Some(base.join("resound").join("materials.sqlite"))
 }
 
+/// Whether the database holds Resound's materials table.
+fn has_materials_table(conn: &Connection, path: &Path) -> Result<bool> {
+    Ok(conn
+        .query_row(
+            "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'materials'",
+            [],
+            |r| r.get::<_, i64>(0),
+        )
+        .map_err(|e| db_err(path, e))?
+        > 0)
+}
+
 impl Library {
     /// Opens (creating and seeding when new) the library at `path`.
     ///
@@ -44,14 +56,7 @@ impl Library {
         }
         let mut conn = Connection::open(path).map_err(|e| db_err(path, e))?;
         let tx = conn.transaction().map_err(|e| db_err(path, e))?;
-        let existed: bool = tx
-            .query_row(
-                "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'materials'",
-                [],
-                |r| r.get::<_, i64>(0),
-            )
-            .map_err(|e| db_err(path, e))?
-            > 0;
+        let existed = has_materials_table(&tx, path)?;
         if !existed {
             tx.execute(
                 "CREATE TABLE materials (name TEXT PRIMARY KEY, json TEXT NOT NULL, updated TEXT NOT NULL)",
@@ -86,14 +91,7 @@ impl Library {
         }
         let conn = Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
             .map_err(|e| db_err(path, e))?;
-        let has_table: bool = conn
-            .query_row(
-                "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'materials'",
-                [],
-                |r| r.get::<_, i64>(0),
-            )
-            .map_err(|e| db_err(path, e))?
-            > 0;
+        let has_table = has_materials_table(&conn, path)?;
         if !has_table {
             return Err(parse_err(
                 path,
