@@ -5,7 +5,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use resound::core::{Hit, Material, ModalModel};
 use resound::io::{model_file, mtx};
-use resound::modal::{ModalParams, ModalSolveInfo};
+use resound::modal::ModalParams;
 use resound::object::ModalReport;
 use std::path::PathBuf;
 
@@ -159,7 +159,7 @@ pub fn run(a: ModalArgs) -> Result<()> {
     }
     let hit = hit.map(|h| model.hit(h)).transpose()?;
     if a.json {
-        return print_json(&ModalReport::new(model, info, hit.as_ref()));
+        return print_json(&ModalReport::new(model, Some(info), hit.as_ref()));
     }
     let e = &info.eigen;
     println!(
@@ -187,12 +187,7 @@ pub fn run_info(a: ModelInfoArgs) -> Result<()> {
         .map(|h| model.hit(h))
         .transpose()?;
     if a.json {
-        let info = ModalSolveInfo {
-            dofs: model.fem_dofs as usize,
-            elements: model.fem_elements as usize,
-            ..Default::default()
-        };
-        let mut s = ModalReport::new(&model, &info, hit.as_ref());
+        let mut s = ModalReport::new(&model, None, hit.as_ref());
         s.load_ms = Some(load_ms);
         return print_json(&s);
     }

@@ -1267,4 +1267,38 @@ mod regression {
         assert!(out.status.success(), "{err}");
         assert!(err.lines().any(|l| l.starts_with("modal: ")), "{err}");
     }
+
+    #[test]
+    fn issue_15_model_json_shows_no_placeholder_solve_figures() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        bar_obj(d);
+        let solved: Value = serde_json::from_str(&ok(&resound(
+            &[
+                "modal",
+                "bar.obj",
+                "-m",
+                "steel",
+                "--modes",
+                "4",
+                "--resolution",
+                "30",
+                "--json",
+                "-o",
+                "bar.rmodal",
+            ],
+            d,
+        )))
+        .unwrap();
+        assert_eq!(solved["element"], "hex8i");
+        assert!(solved["max_rel_residual"].as_f64().unwrap() > 0.0);
+        let loaded: Value =
+            serde_json::from_str(&ok(&resound(&["model", "bar.rmodal", "--json"], d))).unwrap();
+        // A loaded model was not solved here: no element "", nnz 0 or residual 0.0.
+        for key in ["element", "nnz", "max_rel_residual", "solve_s"] {
+            assert!(loaded.get(key).is_none(), "{key}: {loaded}");
+        }
+        assert_eq!(loaded["dofs"], solved["dofs"]);
+        assert!(loaded["load_ms"].as_f64().is_some());
+    }
 }

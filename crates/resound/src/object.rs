@@ -146,13 +146,9 @@ pub struct VoxelRow {
     pub repairs: Vec<String>,
 }
 
-/// A modal model and its solve, as `resound modal --json` prints it.
+/// The solve's figures in a [`ModalReport`].
 #[derive(Serialize)]
-pub struct ModalReport<'a> {
-    /// Degrees of freedom.
-    pub dofs: usize,
-    /// Finite elements.
-    pub elements: usize,
+pub struct SolveRow<'a> {
     /// Element type.
     pub element: &'a str,
     /// Nonzeros of K.
@@ -179,6 +175,18 @@ pub struct ModalReport<'a> {
     pub rigid_modes_dropped: usize,
     /// Largest rigid-body |frequency|, Hz.
     pub rigid_max_hz: f64,
+}
+
+/// A modal model and its solve, as `resound modal --json` prints it.
+#[derive(Serialize)]
+pub struct ModalReport<'a> {
+    /// Degrees of freedom.
+    pub dofs: usize,
+    /// Finite elements.
+    pub elements: usize,
+    /// What the solve did (absent for a loaded model: it was not solved here).
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub solve: Option<SolveRow<'a>>,
     /// The reference material.
     pub material: MaterialRow<'a>,
     /// Surface vertices.
@@ -199,25 +207,30 @@ pub struct ModalReport<'a> {
 }
 
 impl<'a> ModalReport<'a> {
-    /// The report of `model` solved as `info` says, with the gains at `hit`.
-    pub fn new(model: &'a ModalModel, info: &'a ModalSolveInfo, hit: Option<&Hit>) -> Self {
-        let e = &info.eigen;
+    /// The report of `model` (solved as `info` says, or loaded: `None`), with the gains at
+    /// `hit`.
+    pub fn new(model: &'a ModalModel, info: Option<&'a ModalSolveInfo>, hit: Option<&Hit>) -> Self {
         ModalReport {
-            dofs: info.dofs,
-            elements: info.elements,
-            element: info.element,
-            nnz: e.nnz_k,
-            nnz_factor: e.nnz_l,
-            assemble_s: info.assemble_s,
-            factor_s: e.factor_s,
-            eigen_s: e.eigen_s,
-            sturm_s: e.sturm_s,
-            solve_s: info.total_s,
-            operator_applications: e.applications,
-            max_rel_residual: e.max_rel_residual,
-            sturm_count: e.sturm_count,
-            rigid_modes_dropped: info.rigid_modes,
-            rigid_max_hz: info.rigid_max_hz,
+            dofs: info.map_or(model.fem_dofs as usize, |i| i.dofs),
+            elements: info.map_or(model.fem_elements as usize, |i| i.elements),
+            solve: info.map(|info| {
+                let e = &info.eigen;
+                SolveRow {
+                    element: info.element,
+                    nnz: e.nnz_k,
+                    nnz_factor: e.nnz_l,
+                    assemble_s: info.assemble_s,
+                    factor_s: e.factor_s,
+                    eigen_s: e.eigen_s,
+                    sturm_s: e.sturm_s,
+                    solve_s: info.total_s,
+                    operator_applications: e.applications,
+                    max_rel_residual: e.max_rel_residual,
+                    sturm_count: e.sturm_count,
+                    rigid_modes_dropped: info.rigid_modes,
+                    rigid_max_hz: info.rigid_max_hz,
+                }
+            }),
             material: MaterialRow {
                 name: &model.material.name,
                 youngs_modulus_pa: model.material.youngs_modulus,
@@ -225,8 +238,8 @@ impl<'a> ModalReport<'a> {
                 density_kg_m3: model.material.density,
             },
             surface_vertices: model.n_vertices(),
-            warnings: &info.warnings,
-            voxel: info.discretize.as_ref().map(|r| VoxelRow {
+            warnings: info.map_or(&[][..], |i| &i.warnings[..]),
+            voxel: info.and_then(|i| i.discretize.as_ref()).map(|r| VoxelRow {
                 resolution: r.resolution,
                 grid: r.grid_dims,
                 voxel_size_m: r.voxel_size_m,
