@@ -33,7 +33,7 @@ pub fn parse_list(s: &str) -> Result<Vec<f64>> {
 }
 
 /// Progress on stderr: an indicatif spinner or bar on a terminal, and plain `label: message`
-/// lines (at most one every 2 s, and the last) in a log, where indicatif would draw nothing
+/// lines (the first at once, then at most one every 2 s) in a log, where indicatif would draw nothing
 /// and a 30 s estimate would look hung.
 pub struct Progress {
     pb: ProgressBar,

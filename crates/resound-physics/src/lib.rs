@@ -34,7 +34,7 @@
 //! its force; `Engine::process_voices` renders every body, and `resound_synth::spatial`
 //! places it at the listener with 1/r distance attenuation (1 at 1 m, capped at 10 cm), the
 //! propagation delay r/343 m/s (at most 1 s) and an equal-power pan (stereo). The offline
-//! output is sample-identical to the earlier per-body renderer (the box and demo scenes, 24-bit
+//! output is sample-identical to the earlier per-body renderer for the same bodies (the box and demo scenes, 24-bit
 //! WAV compared byte for byte).
 
 #![warn(missing_docs)]

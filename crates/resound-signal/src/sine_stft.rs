@@ -3,8 +3,8 @@
 //!
 //! f32 throughout (audio); one plan per window length, kept with its scratch between calls
 //! (RustFFT's plan-once pattern). Used by the residual (Ren §6: computation in
-//! `resound-estimate`, transfer in `resound-synth`), by the grains' SMS split and quality
-//! figure, and by the statistical model's transient bands.
+//! `resound-estimate`, transfer in `resound-synth`) and by the grains' SMS split and quality
+//! figure. (The statistical model's transient bands keep their own 46 ms frames.)
 //!
 //! # Normalization
 //! The forward transform is unnormalized; [`Stft::inverse`] is the weighted overlap-add that
