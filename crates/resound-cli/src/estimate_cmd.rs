@@ -6,8 +6,8 @@ use clap::{Args, Subcommand};
 use resound::core::{Material, ModalModel};
 use resound::io::library::{read_material, write_material};
 use resound::material::{
-    estimate_material, estimate_plot, library_material as get, open_library, read_library,
-    start_count, EstimateMaterialParams,
+    estimate_material, estimate_plot, library_material as get, list_materials, open_library,
+    read_library, start_count, EstimateMaterialParams, Origin,
 };
 use resound::object::{load_object, ObjectParams};
 use resound::recording::{analyze_file, RecordingParams};
@@ -272,31 +272,31 @@ fn existing(path: &Option<PathBuf>) -> Result<resound::io::library::Library> {
 pub fn run_materials(c: MaterialsCmd) -> Result<()> {
     match c {
         MaterialsCmd::List(a) => {
-            let Some(lib) = read_library(a.library.as_deref())? else {
-                eprintln!(
-                    "no material library yet (estimate --name or materials import creates one)"
-                );
-                return Ok(());
-            };
-            for n in lib.names()? {
-                let m = get(&lib, &n)?;
+            let lib = read_library(a.library.as_deref())?;
+            for (m, origin) in list_materials(lib.as_ref())? {
                 println!(
-                    "{n:<16} alpha {:.4e}  beta {:.4e}  gamma {:.4e}  sigma {:.4e}{}",
+                    "{:<16} alpha {:.4e}  beta {:.4e}  gamma {:.4e}  sigma {:.4e}{}",
+                    m.name,
                     m.alpha,
                     m.beta,
                     m.gamma,
                     m.sigma,
-                    if m.provenance.is_some() {
-                        "  (estimated)"
-                    } else {
-                        ""
+                    match origin {
+                        Origin::Builtin => "  (built-in)",
+                        Origin::Library => "",
+                        Origin::Estimated => "  (estimated)",
+                        Origin::LegacyTable1 =>
+                            "  (Ren Table I in mesh units, from an old library: remove it)",
                     }
                 );
             }
         }
         MaterialsCmd::Show(a) => {
-            let lib = existing(&a.library)?;
-            println!("{}", serde_json::to_string_pretty(&get(&lib, &a.name)?)?);
+            let lib = read_library(a.library.as_deref())?;
+            println!(
+                "{}",
+                serde_json::to_string_pretty(&get(lib.as_ref(), &a.name)?)?
+            );
         }
         MaterialsCmd::Import(a) => {
             let m = read_material(&a.file)?;
@@ -312,8 +312,8 @@ pub fn run_materials(c: MaterialsCmd) -> Result<()> {
         }
         MaterialsCmd::Export(a) => {
             crate::util::check_paths(&[], &[&a.file])?;
-            let lib = existing(&a.library)?;
-            write_material(&a.file, &get(&lib, &a.name)?)?;
+            let lib = read_library(a.library.as_deref())?;
+            write_material(&a.file, &get(lib.as_ref(), &a.name)?)?;
         }
         MaterialsCmd::Remove(a) => {
             existing(&a.library)?;

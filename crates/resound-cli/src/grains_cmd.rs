@@ -197,6 +197,7 @@ pub fn run(c: GrainsCmd) -> Result<()> {
             let mut out = y;
             let level =
                 resound::synth::render::normalize(&mut out, resound::synth::render::CEILING)?;
+            crate::util::warn_all(&level.quiet_warning().into_iter().collect::<Vec<_>>());
             if level.gain_db < 0.0 {
                 eprintln!(
                     "note: turned down by {:.1} dB to stay below full scale",

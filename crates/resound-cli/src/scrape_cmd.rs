@@ -146,6 +146,8 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
     let (mut out, path_m) = render_scrape(&job)?;
     let modes = &job.modes;
     let level = normalize(&mut out, resound::synth::render::CEILING)?;
+    let warnings: Vec<String> = level.quiet_warning().into_iter().collect();
+    crate::util::warn_all(&warnings);
     if level.gain_db < 0.0 {
         eprintln!(
             "note: peak {:.2} of full scale; turned down by {:.1} dB (no clipping)",
@@ -162,6 +164,7 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
             path_m: f64,
             peak: f32,
             gain_db: f32,
+            warnings: Vec<String>,
         }
         crate::util::print_json(&Output {
             output: a.output.display().to_string(),
@@ -169,6 +172,7 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
             path_m,
             peak: level.peak_before,
             gain_db: level.gain_db,
+            warnings,
         })?;
     } else {
         eprintln!("wrote {} ({:.2} m scraped)", a.output.display(), path_m);

@@ -152,6 +152,7 @@ struct Output<'a> {
     strike: &'a StrikeInfo,
     #[serde(skip_serializing_if = "Option::is_none")]
     material: Option<&'a str>,
+    warnings: Vec<String>,
 }
 
 /// Runs `synth`.
@@ -224,6 +225,8 @@ pub fn run(a: SynthArgs) -> Result<()> {
         }
     };
     let level = normalize(&mut strike.samples, CEILING)?;
+    let warnings: Vec<String> = level.quiet_warning().into_iter().collect();
+    crate::util::warn_all(&warnings);
     if level.gain_db < 0.0 {
         eprintln!(
             "note: peak {:.2} of full scale; turned down by {:.1} dB to −1 dBFS (no clipping)",
@@ -247,6 +250,7 @@ pub fn run(a: SynthArgs) -> Result<()> {
             elapsed_s: t0.elapsed().as_secs_f64(),
             strike: &strike.info,
             material: name.as_deref(),
+            warnings,
         });
     }
     eprintln!(

@@ -678,9 +678,19 @@ fn estimate_recovers_a_known_material_and_fills_the_library() {
         d,
     ));
     fails_with(
-        &resound(&["materials", "show", "wood", "--library", "lib.sqlite"], d),
+        &resound(
+            &["materials", "remove", "wood", "--library", "lib.sqlite"],
+            d,
+        ),
         "no material",
     );
+    // Removed from the library, the name still reaches the built-in.
+    let list = ok(&resound(
+        &["materials", "list", "--library", "lib.sqlite"],
+        d,
+    ));
+    let wood = list.lines().find(|l| l.starts_with("wood ")).unwrap();
+    assert!(wood.ends_with("(built-in)"), "{list}");
     ok(&resound(
         &[
             "materials",
@@ -1300,5 +1310,160 @@ mod regression {
         }
         assert_eq!(loaded["dofs"], solved["dofs"]);
         assert!(loaded["load_ms"].as_f64().is_some());
+    }
+
+    /// `bar.rmodal`: the bar's first modes (wood reference), coarse.
+    fn bar_model(d: &Path, resolution: &str) {
+        bar_obj(d);
+        ok(&resound(
+            &[
+                "modal",
+                "bar.obj",
+                "-m",
+                "wood",
+                "--modes",
+                "3",
+                "--resolution",
+                resolution,
+                "-o",
+                "bar.rmodal",
+            ],
+            d,
+        ));
+    }
+
+    fn peak_dbfs(path: &Path) -> f64 {
+        let a = resound::io::load_audio(path).unwrap();
+        let peak = a.channels[0].iter().fold(0.0f32, |p, v| p.max(v.abs()));
+        20.0 * f64::from(peak).log10()
+    }
+
+    #[test]
+    fn issue_15_built_in_materials_are_si_and_render_audibly_at_the_beam_pitch() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        bar_model(d, "60");
+        // Free–free Euler–Bernoulli bar bending through its 10 mm thickness:
+        // f1 = 4.730² h / (2π L² √12) · √(E/ρ), with the built-ins' γ = E/ρ.
+        let beam = |gamma: f64| {
+            4.730f64.powi(2) * 0.01 / (std::f64::consts::TAU * 0.09 * 12f64.sqrt()) * gamma.sqrt()
+        };
+        for (name, gamma) in [("metal", 200e9 / 7850.0), ("wood", 11e9 / 750.0)] {
+            // No library at all: built-ins are reachable by name.
+            ok(&resound(
+                &[
+                    "synth",
+                    "--material",
+                    name,
+                    "--library",
+                    "none.sqlite",
+                    "--mesh",
+                    "bar.rmodal",
+                    "--hit",
+                    "0.05,0,0.005",
+                    "-o",
+                    "s.wav",
+                ],
+                d,
+            ));
+            assert!(!d.join("none.sqlite").exists());
+            let level = peak_dbfs(&d.join("s.wav"));
+            assert!((-30.0..-3.0).contains(&level), "{name}: {level} dBFS");
+            ok(&resound(&["analyze", "s.wav", "--json", "a.json"], d));
+            let a: Value =
+                serde_json::from_str(&std::fs::read_to_string(d.join("a.json")).unwrap()).unwrap();
+            let f1 = a["modes"][0]["freq_hz"].as_f64().unwrap();
+            assert!(
+                (f1 / beam(gamma) - 1.0).abs() < 0.03,
+                "{name}: {f1} Hz vs {}",
+                beam(gamma)
+            );
+        }
+    }
+
+    #[test]
+    fn issue_15_a_legacy_mesh_unit_table_i_entry_is_an_error_that_says_how_to_fix_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        bar_model(d, "30");
+        // Ren's "metal" row as printed, as libraries were seeded before.
+        let legacy = serde_json::json!({
+            "name": "metal", "alpha": 6.3035, "beta": 2.1160e-8, "gamma": 4.5935e5,
+            "sigma": 9.2624e-6, "damping_model": "rayleigh", "provenance": null
+        });
+        std::fs::write(d.join("metal.json"), legacy.to_string()).unwrap();
+        ok(&resound(
+            &[
+                "materials",
+                "import",
+                "metal.json",
+                "--force",
+                "--library",
+                "lib.sqlite",
+            ],
+            d,
+        ));
+        let list = ok(&resound(
+            &["materials", "list", "--library", "lib.sqlite"],
+            d,
+        ));
+        assert!(
+            list.lines()
+                .any(|l| l.starts_with("metal ") && l.contains("remove it")),
+            "{list}"
+        );
+        let synth = [
+            "synth",
+            "--material",
+            "metal",
+            "--library",
+            "lib.sqlite",
+            "--mesh",
+            "bar.rmodal",
+            "--hit",
+            "0.05,0,0.005",
+            "-o",
+            "s.wav",
+        ];
+        fails_with(&resound(&synth, d), "materials remove metal");
+        assert!(!d.join("s.wav").exists());
+        ok(&resound(
+            &["materials", "remove", "metal", "--library", "lib.sqlite"],
+            d,
+        ));
+        ok(&resound(&synth, d));
+    }
+
+    #[test]
+    fn issue_15_a_render_below_minus_90_dbfs_is_a_warning() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        bar_model(d, "30");
+        let out: Value = serde_json::from_str(&ok(&resound(
+            &[
+                "synth",
+                "--material",
+                "preset:steel",
+                "--mesh",
+                "bar.rmodal",
+                "--hit",
+                "0.05,0,0.005",
+                "--velocity",
+                "1e-5",
+                "-o",
+                "s.wav",
+                "--json",
+            ],
+            d,
+        )))
+        .unwrap();
+        assert!(
+            out["warnings"][0]
+                .as_str()
+                .unwrap()
+                .contains("below -90 dBFS"),
+            "{out}"
+        );
+        assert!(peak_dbfs(&d.join("s.wav")) < -90.0);
     }
 }

@@ -25,4 +25,6 @@ pub mod units;
 pub use damped::DampedMode;
 pub use material::{Material, MaterialError};
 pub use modal_model::{Hit, ModalModel, ModalModelError};
-pub use rayleigh::{Damping, DampingModel, ModeDamping, Provenance, Residual, SoundMaterial};
+pub use rayleigh::{
+    Damping, DampingModel, ModeDamping, Provenance, Residual, SoundMaterial, DEFAULT_SIGMA,
+};

@@ -297,8 +297,40 @@ impl SoundMaterial {
         Ok(())
     }
 
-    /// The five materials of Ren 2013 Table I (wood, plastic, metal, glass, porcelain).
-    pub fn ren_table_1() -> Vec<SoundMaterial> {
+    /// The five built-in materials, named after Ren 2013 Table I (wood, plastic, metal,
+    /// glass, porcelain), in SI units.
+    ///
+    /// Table I's Rayleigh α (1/s) and β (s) carry over unchanged: a mode's decay
+    /// d = ½(α + βω²) involves only time, so it does not depend on the mesh's length unit.
+    /// Its γ and σ do not: for a given pitch γ scales as L² (f ∝ √γ / L), and σ maps mesh-unit
+    /// gains to Ren's recording level. The paper gives neither the mesh unit nor the recording
+    /// gain, and the unit implied by γ_phys / γ_Ren differs per object (√ of 22 for wood to
+    /// 142 for glass), so no single conversion exists. γ is therefore the handbook E/ρ of each
+    /// class (the elastic presets: wood 11 GPa / 750 kg/m³, ABS-like plastic 2.3 GPa /
+    /// 1050 kg/m³, steel 200 GPa / 7850 kg/m³, soda-lime glass 72 GPa / 2500 kg/m³,
+    /// porcelain 70 GPa / 2400 kg/m³), and σ is [`DEFAULT_SIGMA`]. On a 300 × 20 × 10 mm bar
+    /// "metal" then rings at 577 Hz, the Euler–Bernoulli value for steel.
+    pub fn builtin() -> Vec<SoundMaterial> {
+        [
+            ("wood", 2.1364e0, 3.0828e-6, 11e9 / 750.0),
+            ("plastic", 5.2627e1, 8.7753e-7, 2.3e9 / 1050.0),
+            ("metal", 6.3035e0, 2.1160e-8, 200e9 / 7850.0),
+            ("glass", 1.8301e1, 1.4342e-7, 72e9 / 2500.0),
+            ("porcelain", 3.7388e-2, 8.4142e-8, 70e9 / 2400.0),
+        ]
+        .iter()
+        .map(|&(n, a, b, g)| SoundMaterial::rayleigh(n, a, b, g, DEFAULT_SIGMA))
+        .collect()
+    }
+
+    /// The built-in material `name`, if there is one.
+    pub fn builtin_named(name: &str) -> Option<SoundMaterial> {
+        Self::builtin().into_iter().find(|m| m.name == name)
+    }
+
+    /// Ren 2013 Table I exactly as printed (γ and σ in the paper's mesh units, not SI). Kept to
+    /// recognise library entries seeded with it by earlier versions; use [`Self::builtin`].
+    pub fn ren_table_1_mesh_units() -> Vec<SoundMaterial> {
         [
             ("wood", 2.1364e0, 3.0828e-6, 6.6625e5, 3.3276e-6),
             ("plastic", 5.2627e1, 8.7753e-7, 8.9008e4, 2.2050e-6),
@@ -310,7 +342,26 @@ impl SoundMaterial {
         .map(|&(n, a, b, g, s)| SoundMaterial::rayleigh(n, a, b, g, s))
         .collect()
     }
+
+    /// Whether this is a Table I row in mesh units as earlier versions seeded libraries with
+    /// (same name, no provenance, γ and σ as printed): it renders far too low in pitch and
+    /// level on a mesh in metres.
+    pub fn is_legacy_table_1(&self) -> bool {
+        self.provenance.is_none()
+            && Self::ren_table_1_mesh_units()
+                .iter()
+                .any(|t| t.name == self.name && t.gamma == self.gamma && t.sigma == self.sigma)
+    }
 }
+
+/// The amplitude scale σ of materials not estimated from a recording (the built-ins and the
+/// `preset:` materials): 100 full-scale units per metre of impulse-response displacement at
+/// the reference impact. It is a calibration, like a microphone gain, not physics (σ of an
+/// estimated material is the recording's own): with it the reference impactor (a 5 mm steel
+/// ball at 1 m/s) on a hand-sized object (the 300 × 20 × 10 mm bar of each built-in, struck
+/// a sixth along) peaks at −15 to −12 dBFS, so physical differences in level
+/// between objects and materials are kept and nothing is inaudible or clipped by default.
+pub const DEFAULT_SIGMA: f64 = 100.0;
 
 #[cfg(test)]
 mod tests {
@@ -368,8 +419,18 @@ mod tests {
 
     #[test]
     fn table_1_is_valid_and_bad_values_are_named() {
-        let t = SoundMaterial::ren_table_1();
+        let t = SoundMaterial::builtin();
         assert_eq!(t.len(), 5);
+        // α, β as printed; γ physical (1e6–1e8 m²/s²); the printed rows are recognised.
+        for (b, r) in t.iter().zip(SoundMaterial::ren_table_1_mesh_units()) {
+            assert_eq!((b.alpha, b.beta), (r.alpha, r.beta));
+            assert!(
+                b.gamma > 1e6 && b.gamma < 1e8 && r.gamma < 1e6,
+                "{}",
+                b.name
+            );
+            assert!(r.is_legacy_table_1() && !b.is_legacy_table_1());
+        }
         assert!(t.iter().all(|m| m.validate().is_ok()));
         let bad = SoundMaterial {
             alpha: -1.0,

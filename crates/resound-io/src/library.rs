@@ -3,7 +3,8 @@
 //!
 //! One table, `materials(name TEXT PRIMARY KEY, json TEXT NOT NULL, updated TEXT NOT NULL)`: the
 //! JSON is the material file itself, so nothing is lost between file and library. Every write
-//! is one transaction. A new library is seeded with the five materials of Ren 2013 Table I.
+//! is one transaction. A new library is seeded with the five built-in materials ([`SoundMaterial::builtin`]: Ren 2013
+//! Table I damping, SI γ and σ).
 //! Default location: `$RESOUND_LIBRARY`, else `$XDG_DATA_HOME/resound/materials.sqlite`, else
 //! `~/.local/share/resound/materials.sqlite`.
 
@@ -63,7 +64,7 @@ impl Library {
                 [],
             )
             .map_err(|e| db_err(path, e))?;
-            for m in SoundMaterial::ren_table_1() {
+            for m in SoundMaterial::builtin() {
                 let json = serde_json::to_string(&m).map_err(|e| parse_err(path, e.to_string()))?;
                 tx.execute(
                     "INSERT INTO materials (name, json, updated) VALUES (?1, ?2, datetime('now'))",
@@ -104,7 +105,12 @@ impl Library {
         }))
     }
 
-    /// Names, sorted.
+    /// The database file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The names of all materials, sorted.
     pub fn names(&self) -> Result<Vec<String>> {
         let mut st = self
             .conn

@@ -61,6 +61,33 @@ pub struct LevelReport {
     pub gain_db: f32,
 }
 
+/// Renders whose peak lies below this (dBFS) are reported as inaudible: 16-bit PCM holds
+/// zeros there, and at any sane monitoring gain nobody hears them.
+pub const QUIET_DBFS: f32 = -90.0;
+
+impl LevelReport {
+    /// Peak before any gain, dBFS (−∞ for silence).
+    pub fn peak_dbfs(&self) -> f32 {
+        20.0 * self.peak_before.log10()
+    }
+
+    /// A warning when the render, as it came out of the physics (before any gain), peaks below
+    /// [`QUIET_DBFS`]: a material or scale in the wrong units, or an impact too soft to hear.
+    pub fn quiet_warning(&self) -> Option<String> {
+        if self.peak_before == 0.0 {
+            Some("the render is silent (every sample is 0)".to_string())
+        } else if self.peak_dbfs() < QUIET_DBFS {
+            Some(format!(
+                "the render peaks at {:.0} dBFS, below {QUIET_DBFS:.0} dBFS: inaudible, and \
+                 zeros in 16-bit PCM (a material in the wrong units, e.g. γ or σ in mesh units?)",
+                self.peak_dbfs()
+            ))
+        } else {
+            None
+        }
+    }
+}
+
 /// The one output-level function: one gain for all `channels` (keeps a stereo image), never
 /// clipping silently — the caller reports the gain. NaN or infinite samples are an error.
 ///

@@ -14,7 +14,7 @@
 //!    sounding from the grains — is rendered (`scene.wav`, `events.jsonl`).
 //! 7. Pictures (`recording.png`, `estimate.png`, `scene.png`) and `summary.txt` are written.
 
-use crate::error::Result;
+use crate::error::{invalid, Result};
 use crate::material::{estimate_material, estimate_plot, open_library, EstimateMaterialParams};
 use crate::recording::{analyze_file, RecordingParams};
 use crate::scene::{render_scene, SceneRenderParams, SceneSummary};
@@ -167,7 +167,11 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
             ..Default::default()
         },
     )?;
-    resound_synth::render::normalize(&mut strike.samples, resound_synth::render::CEILING)?;
+    let level =
+        resound_synth::render::normalize(&mut strike.samples, resound_synth::render::CEILING)?;
+    if let Some(w) = level.quiet_warning() {
+        return Err(invalid(format!("the demo strike: {w}")));
+    }
     write_wav(
         &dir.join("strike.wav"),
         &strike.samples,

@@ -42,20 +42,96 @@ pub fn read_library(path: Option<&Path>) -> Result<Option<Library>> {
     Ok(Library::open_read_only(&path)?)
 }
 
-/// A library entry by name; a missing name lists the known ones.
+/// A library entry by name, else the built-in of that name (with or without a library); a
+/// missing name lists the known ones. A library entry holding Ren's Table I in mesh units (as
+/// earlier versions seeded) is an error that says how to replace it.
 ///
 /// # Errors
-/// Unknown names, unreadable libraries.
-pub fn library_material(lib: &Library, name: &str) -> Result<SoundMaterial> {
-    lib.get(name)?.ok_or_else(|| {
+/// Unknown names, legacy entries, unreadable libraries.
+pub fn library_material(lib: Option<&Library>, name: &str) -> Result<SoundMaterial> {
+    if let Some(l) = lib {
+        if let Some(m) = l.get(name)? {
+            return not_legacy(m, l.path());
+        }
+    }
+    SoundMaterial::builtin_named(name).ok_or_else(|| {
+        let mut known: Vec<String> = match lib {
+            Some(l) => l.names().unwrap_or_default(),
+            None => Vec::new(),
+        };
+        known.extend(SoundMaterial::builtin().into_iter().map(|m| m.name));
+        known.sort();
+        known.dedup();
         invalid(format!(
             "no material {name:?} in the library (known: {})",
-            lib.names().unwrap_or_default().join(", ")
+            known.join(", ")
         ))
     })
 }
 
-/// The Rayleigh α, β of Ren's Table I material that matches an elastic preset.
+/// Where a listed material comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Origin {
+    /// Built in, not (or not differently) stored in the library.
+    Builtin,
+    /// Stored in the library without provenance (imported, or a seeded built-in).
+    Library,
+    /// Estimated from a recording.
+    Estimated,
+    /// Ren's Table I in mesh units, seeded by an earlier version: remove it.
+    LegacyTable1,
+}
+
+/// Every material a name can reach: the library's entries and the built-ins it does not hold,
+/// sorted by name.
+///
+/// # Errors
+/// Unreadable libraries.
+pub fn list_materials(lib: Option<&Library>) -> Result<Vec<(SoundMaterial, Origin)>> {
+    let mut out = Vec::new();
+    if let Some(l) = lib {
+        for n in l.names()? {
+            let Some(m) = l.get(&n)? else { continue };
+            let origin = if m.is_legacy_table_1() {
+                Origin::LegacyTable1
+            } else if m.provenance.is_some() {
+                Origin::Estimated
+            } else if SoundMaterial::builtin_named(&n).as_ref() == Some(&m) {
+                Origin::Builtin
+            } else {
+                Origin::Library
+            };
+            out.push((m, origin));
+        }
+    }
+    for b in SoundMaterial::builtin() {
+        if !out.iter().any(|(m, _)| m.name == b.name) {
+            out.push((b, Origin::Builtin));
+        }
+    }
+    out.sort_by(|a, b| a.0.name.cmp(&b.0.name));
+    Ok(out)
+}
+
+fn not_legacy(m: SoundMaterial, library: &Path) -> Result<SoundMaterial> {
+    if !m.is_legacy_table_1() {
+        return Ok(m);
+    }
+    Err(invalid(format!(
+        "library entry {:?} in {} holds Ren 2013 Table I as printed, in his meshes' units \
+         (γ = {:.4e} m²/s², σ = {:.4e}): on a mesh in metres it renders several times too low \
+         in pitch and near −150 dBFS. Earlier versions seeded libraries with it. Remove it \
+         (`resound materials remove {}`) and the SI built-in of that name is used",
+        m.name,
+        library.display(),
+        m.gamma,
+        m.sigma,
+        m.name
+    )))
+}
+
+/// The Rayleigh α, β of the built-in (Ren Table I) material that matches an elastic preset.
 fn table_damping(preset: &str) -> Option<(f64, f64)> {
     let ren = match preset {
         "steel" | "aluminium" => "metal",
@@ -65,16 +141,12 @@ fn table_damping(preset: &str) -> Option<(f64, f64)> {
         "plastic" => "plastic",
         _ => return None,
     };
-    SoundMaterial::ren_table_1()
-        .into_iter()
-        .find(|m| m.name == ren)
-        .map(|m| (m.alpha, m.beta))
+    SoundMaterial::builtin_named(ren).map(|m| (m.alpha, m.beta))
 }
 
 /// `preset:NAME` as a sound material: an elastic preset's γ = E/ρ with the Rayleigh damping of
 /// the matching Ren 2013 Table I material (steel and aluminium → metal, ceramic → porcelain),
-/// σ = 1. (Ren's Table I γ values suit his meshes' units, not metres: the preset's γ gives
-/// metre-scale objects their real pitch.)
+/// σ = [`resound_core::DEFAULT_SIGMA`].
 pub fn preset_sound_material(name: &str) -> Option<SoundMaterial> {
     let m = Material::preset(name).ok()?;
     let (alpha, beta) = table_damping(name)?;
@@ -83,15 +155,16 @@ pub fn preset_sound_material(name: &str) -> Option<SoundMaterial> {
         alpha,
         beta,
         m.youngs_modulus / m.density,
-        1.0,
+        resound_core::DEFAULT_SIGMA,
     ))
 }
 
 /// Resolves a material reference: `preset:NAME`, a material file (relative to `base_dir`), a
-/// library name, or a plain preset name. The result is validated.
+/// library name, a built-in name ([`SoundMaterial::builtin`]) or a plain preset name. The
+/// result is validated.
 ///
 /// # Errors
-/// Unknown references, unreadable files, invalid values.
+/// Unknown references, unreadable files, invalid values, legacy library entries.
 pub fn resolve_material(
     spec: &str,
     base_dir: &Path,
@@ -108,13 +181,21 @@ pub fn resolve_material(
         if spec.to_ascii_lowercase().ends_with(".json") || path.is_file() {
             read_material(&path)?
         } else {
-            match library.map(|l| l.get(spec)).transpose()?.flatten() {
+            let entry = match library {
+                Some(l) => l.get(spec)?.map(|m| not_legacy(m, l.path())).transpose()?,
+                None => None,
+            };
+            match entry
+                .or_else(|| SoundMaterial::builtin_named(spec))
+                .or_else(|| preset_sound_material(spec))
+            {
                 Some(m) => m,
-                None => preset_sound_material(spec).ok_or_else(|| {
-                    invalid(format!(
-                        "no material {spec:?} in the library, no such file, and not a preset"
-                    ))
-                })?,
+                None => {
+                    return Err(invalid(format!(
+                        "no material {spec:?} in the library, no such file, and neither a \
+                         built-in (wood, plastic, metal, glass, porcelain) nor a preset"
+                    )))
+                }
             }
         }
     };

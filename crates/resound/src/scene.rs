@@ -2,12 +2,12 @@
 //! per shape, material and resolution, cached by content hash) → modes and per-vertex gains of
 //! each body's material → [`resound_physics::BodySpec`].
 //!
-//! Materials in a scene are a material file (`*.json`), a library name, or `preset:NAME`: an
-//! elastic preset (steel, aluminium, glass, ceramic, wood, plastic: γ = E/ρ from standard
-//! tables) with the Rayleigh damping of the matching Ren 2013 Table I material (steel and
-//! aluminium → metal, ceramic → porcelain) and σ = 1. A plain name that is not in the library
-//! but is a preset is taken as `preset:NAME`. (Ren's Table I γ values suit his meshes' units, not
-//! metres: `preset:` gives metre-scale objects their real pitch.)
+//! Materials in a scene are a material file (`*.json`), a library name, a built-in
+//! ([`resound_core::SoundMaterial::builtin`]), or `preset:NAME`: an elastic preset (steel,
+//! aluminium, glass, ceramic, wood, plastic: γ = E/ρ from standard tables) with the Rayleigh
+//! damping of the matching Ren 2013 Table I material (steel and aluminium → metal, ceramic →
+//! porcelain) and σ = [`resound_core::DEFAULT_SIGMA`]. A plain name that is neither in the
+//! library nor a built-in but is a preset is taken as `preset:NAME`.
 //!
 //! The modal model of a body is solved with the body's own density and E = γρ, so λ needs no
 //! rescaling and the mass-normalised shapes carry the body's real mass.
@@ -455,6 +455,8 @@ pub fn render_scene(
     let mut notes = Vec::new();
     if level.peak_before == 0.0 {
         notes.push("the scene is silent (no sounding contacts)".to_string());
+    } else if let Some(w) = level.quiet_warning() {
+        notes.push(w);
     } else if params.keep_level && level.gain_db < 0.0 {
         notes.push(format!(
             "peak {:.2} of full scale; turned down by {:.1} dB (no clipping)",
