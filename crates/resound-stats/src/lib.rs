@@ -66,6 +66,10 @@ pub struct ModeStatistics {
     pub transient: Option<TransientStats>,
 }
 
+/// The highest credible band onset level, dB re full scale (RMS; a band of a signal within
+/// ±1 stays below 0 dB, the margin allows floating-point recordings a little over).
+pub const MAX_ONSET_DB: f64 = 6.0;
+
 /// Per-band mean and spread of the transient's onset level and decay over recordings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TransientStats {
@@ -92,37 +96,92 @@ impl TransientStats {
                 "transients with different bands (mixed sample rates?)".into(),
             ));
         }
-        let n = fits.len() as f64;
-        let stats = |get: &dyn Fn(&transient::Transient) -> &Vec<f64>| {
-            let bands = get(first).len();
-            let mean: Vec<f64> = (0..bands)
-                .map(|b| fits.iter().map(|t| get(t)[b]).sum::<f64>() / n)
-                .collect();
-            let sd: Vec<f64> = (0..bands)
-                .map(|b| {
-                    if fits.len() < 2 {
-                        0.0
-                    } else {
-                        (fits
-                            .iter()
-                            .map(|t| (get(t)[b] - mean[b]).powi(2))
-                            .sum::<f64>()
-                            / (n - 1.0))
-                            .sqrt()
-                    }
-                })
-                .collect();
-            (mean, sd)
-        };
-        let (onset_db_mean, onset_db_sd) = stats(&|t| &t.onset_db);
-        let (decay_mean, decay_sd) = stats(&|t| &t.decay_db_per_s);
-        Ok(Self {
+        // Per band, over the recordings where the band holds a transient; a band present in
+        // fewer than half of them is absent.
+        let bands = first.onset_db.len();
+        let mut out = Self {
             edges_hz: first.edges_hz.clone(),
-            onset_db_mean,
-            onset_db_sd,
-            decay_mean,
-            decay_sd,
-        })
+            onset_db_mean: vec![transient::ABSENT_DB; bands],
+            onset_db_sd: vec![0.0; bands],
+            decay_mean: vec![0.0; bands],
+            decay_sd: vec![0.0; bands],
+        };
+        let mean_sd = |v: &[f64]| {
+            let n = v.len() as f64;
+            let m = v.iter().sum::<f64>() / n;
+            let sd = if v.len() < 2 {
+                0.0
+            } else {
+                (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+            };
+            (m, sd)
+        };
+        for b in 0..bands {
+            let present: Vec<&transient::Transient> = fits
+                .iter()
+                .filter(|t| t.onset_db[b] > transient::ABSENT_DB)
+                .collect();
+            if present.is_empty() || 2 * present.len() < fits.len() {
+                continue;
+            }
+            let on: Vec<f64> = present.iter().map(|t| t.onset_db[b]).collect();
+            let de: Vec<f64> = present.iter().map(|t| t.decay_db_per_s[b]).collect();
+            (out.onset_db_mean[b], out.onset_db_sd[b]) = mean_sd(&on);
+            (out.decay_mean[b], out.decay_sd[b]) = mean_sd(&de);
+        }
+        out.validate()?;
+        Ok(out)
+    }
+
+    /// Checks that the statistics are credible: finite, increasing band edges, onset levels at
+    /// most [`MAX_ONSET_DB`] (a band's RMS cannot exceed a full-scale signal's), spreads and
+    /// decays ≥ 0.
+    ///
+    /// # Errors
+    /// [`StatsError::Data`] naming the first offending band.
+    pub fn validate(&self) -> Result<(), StatsError> {
+        let bands = self.onset_db_mean.len();
+        if self.edges_hz.len() != bands + 1
+            || [&self.onset_db_sd, &self.decay_mean, &self.decay_sd]
+                .iter()
+                .any(|v| v.len() != bands)
+        {
+            return Err(StatsError::Data(
+                "transient statistics with mismatched band counts".into(),
+            ));
+        }
+        if !self.edges_hz.windows(2).all(|w| w[0] < w[1] && w[0] >= 0.0) {
+            return Err(StatsError::Data(
+                "transient band edges must be increasing and ≥ 0 Hz".into(),
+            ));
+        }
+        for b in 0..bands {
+            let (m, s, d, ds) = (
+                self.onset_db_mean[b],
+                self.onset_db_sd[b],
+                self.decay_mean[b],
+                self.decay_sd[b],
+            );
+            let fine = m.is_finite()
+                && m <= MAX_ONSET_DB
+                && s.is_finite()
+                && s >= 0.0
+                && d.is_finite()
+                && d >= 0.0
+                && ds.is_finite()
+                && ds >= 0.0;
+            if !fine {
+                return Err(StatsError::Data(format!(
+                    "transient band {} ({:.0}–{:.0} Hz) is not credible: onset {m:.1} ± {s:.1} dB \
+                     (at most {MAX_ONSET_DB} dB re full scale), decay {d:.1} ± {ds:.1} dB/s; \
+                     refit it with `resound stats fit`",
+                    b + 1,
+                    self.edges_hz[b],
+                    self.edges_hz[b + 1]
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// One transient drawn band by band (independent Gaussians; decays kept ≥ 0).
@@ -136,7 +195,13 @@ impl TransientStats {
             .onset_db_mean
             .iter()
             .zip(&self.onset_db_sd)
-            .map(|(&m, &s)| draw(m, s))
+            .map(|(&m, &s)| {
+                if m <= transient::ABSENT_DB {
+                    transient::ABSENT_DB
+                } else {
+                    draw(m, s).clamp(transient::ABSENT_DB + 1.0, MAX_ONSET_DB)
+                }
+            })
             .collect();
         let decay_db_per_s = self
             .decay_mean

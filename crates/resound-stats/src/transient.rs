@@ -42,6 +42,49 @@ pub struct Transient {
     pub decay_db_per_s: Vec<f64>,
 }
 
+/// Onset level of a band that holds no transient (dB re full scale): it is not synthesized.
+pub const ABSENT_DB: f64 = -120.0;
+
+/// A band's transient must peak within this time of the onset (s): later peaks are room noise,
+/// a later event or leakage, not the strike's transient (Traer's transients last tens of ms).
+pub const MAX_PEAK_S: f64 = 0.1;
+
+/// A band's transient must peak this far (dB) above the band's noise floor.
+pub const MIN_SNR_DB: f64 = 10.0;
+
+/// One band's (onset level dB, decay dB/s) from its frame levels `db` (hop `dt`, frame centre
+/// `centre` after the frame start): a line from the loudest frame until it falls 40 dB or into
+/// the noise, read at t = 0 but never above `cap_db` (the signal's own peak level: no band's
+/// RMS exceeds it). A band without a clear peak near the onset is [`ABSENT_DB`].
+fn fit_band(db: &[f64], dt: f64, centre: f64, cap_db: f64) -> (f64, f64) {
+    let Some((peak, &top)) = db.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) else {
+        return (ABSENT_DB, 0.0);
+    };
+    let mut floor = db.to_vec();
+    floor.sort_by(f64::total_cmp);
+    let noise = floor[floor.len() / 10];
+    if peak as f64 * dt > MAX_PEAK_S || top < noise + MIN_SNR_DB {
+        return (ABSENT_DB, 0.0);
+    }
+    let stop = (top - 40.0).max(noise + 6.0);
+    let end = db[peak..]
+        .iter()
+        .position(|&v| v < stop)
+        .map_or(db.len(), |i| peak + i);
+    let pts: Vec<(f64, f64)> = (peak..end).map(|i| (i as f64 * dt, db[i])).collect();
+    if pts.len() < 3 {
+        return (top.clamp(ABSENT_DB, cap_db.max(top)), 0.0);
+    }
+    let n = pts.len() as f64;
+    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let slope = sxy / sxx.max(1e-300);
+    let at_onset = my - slope * (mx + centre);
+    (at_onset.clamp(ABSENT_DB, cap_db.max(top)), (-slope).max(0.0))
+}
+
 /// Fits a transient with `bands` bands to `residual` (onset-aligned, at `sample_rate_hz`).
 pub fn fit_transient(residual: &[f64], sample_rate_hz: f64, bands: usize) -> Transient {
     let edges = band_edges(bands, (0.45 * sample_rate_hz).min(20_000.0));
@@ -83,37 +126,15 @@ pub fn fit_transient(residual: &[f64], sample_rate_hz: f64, bands: usize) -> Tra
     let dt = hop as f64 / sample_rate_hz;
     let mut onset_db = Vec::with_capacity(bands);
     let mut decay = Vec::with_capacity(bands);
+    // Window centres sit W/2 after the frame start.
+    let centre = 0.5 * w as f64 / sample_rate_hz;
+    let peak = residual.iter().fold(0.0f64, |p, v| p.max(v.abs()));
+    let cap_db = 20.0 * peak.max(1e-30).log10();
     for p in &power {
         let db: Vec<f64> = p.iter().map(|&v| 10.0 * v.max(1e-30).log10()).collect();
-        let Some((peak, &top)) = db.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) else {
-            onset_db.push(-200.0);
-            decay.push(0.0);
-            continue;
-        };
-        let mut floor = db.clone();
-        floor.sort_by(f64::total_cmp);
-        let noise = floor[floor.len() / 10];
-        let stop = (top - 40.0).max(noise + 6.0);
-        let end = db[peak..]
-            .iter()
-            .position(|&v| v < stop)
-            .map_or(db.len(), |i| peak + i);
-        let pts: Vec<(f64, f64)> = (peak..end).map(|i| (i as f64 * dt, db[i])).collect();
-        if pts.len() < 3 {
-            onset_db.push(top);
-            decay.push(0.0);
-            continue;
-        }
-        let n = pts.len() as f64;
-        let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
-        let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
-        let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-        let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-        let slope = sxy / sxx.max(1e-300);
-        // Window centres sit W/2 after the frame start.
-        let centre = 0.5 * w as f64 / sample_rate_hz;
-        onset_db.push(my - slope * (mx + centre));
-        decay.push((-slope).max(0.0));
+        let (onset, d) = fit_band(&db, dt, centre, cap_db);
+        onset_db.push(onset);
+        decay.push(d);
     }
     Transient {
         edges_hz: edges,
@@ -144,6 +165,9 @@ pub fn synthesize_transient(
     let mut band = inv.make_input_vec();
     let mut x = inv.make_output_vec();
     for b in 0..t.onset_db.len() {
+        if t.onset_db[b] <= ABSENT_DB {
+            continue;
+        }
         let (lo, hi) = (t.edges_hz[b], t.edges_hz[b + 1]);
         for (k, c) in band.iter_mut().enumerate() {
             let f = k as f64 * bin_hz;
@@ -209,5 +233,44 @@ mod tests {
             / 30.0;
         assert!(onset_err < 2.0, "mean onset error {onset_err} dB");
         assert!((erb_number(erb_frequency(17.3)) - 17.3).abs() < 1e-9);
+    }
+
+    #[test]
+    fn issue_15_a_band_that_peaks_late_or_in_the_noise_is_absent_and_onsets_never_exceed_the_peak(
+    ) {
+        let fs = 48_000.0;
+        let n = 48_000;
+        let mut rng = SmallRng::seed_from_u64(9);
+        // Room noise at −80 dB everywhere, a second event at 0.6 s at 600–800 Hz that decays
+        // fast (extrapolated back to t = 0 it would claim +100 dB), and a real transient at
+        // 5 kHz from t = 0.
+        let mut x: Vec<f64> = (0..n).map(|_| 1e-4 * (rng.random::<f64>() - 0.5)).collect();
+        for (i, v) in x.iter_mut().enumerate() {
+            let t = i as f64 / fs;
+            *v += 0.2 * (-t * 60.0).exp() * (std::f64::consts::TAU * 5000.0 * t).sin();
+            if t > 0.6 {
+                let u = t - 0.6;
+                *v += 0.3 * (-u * 40.0).exp() * (std::f64::consts::TAU * 700.0 * u).sin();
+            }
+        }
+        let fit = fit_transient(&x, fs, 30);
+        let band = |f: f64| fit.edges_hz.partition_point(|&e| e <= f) - 1;
+        assert_eq!(fit.onset_db[band(700.0)], ABSENT_DB, "{:?}", fit.onset_db);
+        assert_eq!(fit.onset_db[band(100.0)], ABSENT_DB, "{:?}", fit.onset_db);
+        let b5k = band(5000.0);
+        // 0.2 amplitude: RMS −17 dB; within 6 dB (85 ms frames on a 520 dB/s decay), and no
+        // band above the signal's peak.
+        assert!((fit.onset_db[b5k] + 17.0).abs() < 6.0, "{}", fit.onset_db[b5k]);
+        let cap = 20.0 * x.iter().fold(0.0f64, |p, v| p.max(v.abs())).log10();
+        assert!(fit.onset_db.iter().all(|&v| v <= cap), "{:?}", fit.onset_db);
+        // Absent bands add nothing.
+        let only_absent = Transient {
+            edges_hz: fit.edges_hz.clone(),
+            onset_db: vec![ABSENT_DB; 30],
+            decay_db_per_s: vec![0.0; 30],
+        };
+        assert!(synthesize_transient(&only_absent, fs, 1000, 1)
+            .iter()
+            .all(|&v| v == 0.0));
     }
 }

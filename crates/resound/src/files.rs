@@ -56,6 +56,10 @@ pub fn load_stats(path: &Path) -> Result<ModeStatistics> {
             s.modes
         )));
     }
+    if let Some(t) = &s.transient {
+        t.validate()
+            .map_err(|e| invalid(format!("{}: {e}", path.display())))?;
+    }
     Ok(s)
 }
 
@@ -114,7 +118,7 @@ pub fn fit_stats(
         all.push(r.modes);
     }
     let mut s = ModeStatistics::fit(material, &all, modes)?;
-    s.transient = resound_stats::TransientStats::fit(&transients).ok();
+    s.transient = Some(resound_stats::TransientStats::fit(&transients)?);
     Ok(s)
 }
 
