@@ -3,7 +3,7 @@
 use anyhow::{bail, Result};
 use clap::Args;
 use resound::core::DampedMode;
-use resound::recording::{analyze_file, RecordingParams};
+use resound::recording::analyze_file;
 use resound::signal::{Analysis, AnalyzeParams};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -29,15 +29,8 @@ pub struct AnalyzeArgs {
     /// Zero-phase 4th-order Butterworth high-pass first (e.g. 100 against room rumble).
     #[arg(long, value_name = "HZ")]
     pub highpass_hz: Option<f64>,
-    /// Analyse channel K (0-based) instead of the mix of all channels.
-    #[arg(long, value_name = "K")]
-    pub channel: Option<usize>,
-    /// Resample to this rate first (rubato).
-    #[arg(long, value_name = "HZ")]
-    pub resample_hz: Option<u32>,
-    /// Which strike to analyse when the file holds several (1 = first).
-    #[arg(long, default_value_t = 1, value_name = "K")]
-    pub strike: usize,
+    #[command(flatten)]
+    pub take: crate::util::TakeArgs,
     /// Analyse at most this many seconds after the onset.
     #[arg(long, default_value_t = 5.0)]
     pub max_duration_s: f64,
@@ -64,9 +57,6 @@ struct Output<'a> {
 
 /// Runs `analyze`.
 pub fn run(a: AnalyzeArgs) -> Result<()> {
-    if a.strike == 0 {
-        bail!("--strike counts from 1");
-    }
     if !(a.max_duration_s > 0.02 && a.max_duration_s <= 600.0) {
         bail!("--max-duration-s must be in (0.02, 600]");
     }
@@ -76,16 +66,12 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         max_modes: a.max_modes,
         min_db: a.min_db,
         highpass_hz: a.highpass_hz,
-        strike: a.strike - 1,
+        strike: a.take.strike_index()?,
         max_duration_s: a.max_duration_s,
         refine: !a.stage1_only,
         ..AnalyzeParams::default()
     };
-    let rp = RecordingParams {
-        channel: a.channel,
-        resample_hz: a.resample_hz,
-    };
-    let (rec, res) = analyze_file(&a.audio, &rp, &params)?;
+    let (rec, res) = analyze_file(&a.audio, &a.take.recording(), &params)?;
     crate::util::warn_all(&res.warnings);
     let out = Output {
         file: a.audio.display().to_string(),

@@ -10,7 +10,7 @@ use resound::material::{
     read_library, start_count, EstimateMaterialParams, Origin,
 };
 use resound::object::{load_object, ObjectParams};
-use resound::recording::{analyze_file, RecordingParams};
+use resound::recording::analyze_file;
 use resound::signal::AnalyzeParams;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -38,6 +38,8 @@ pub struct EstimateArgs {
     /// Zero-phase high-pass before analysis (e.g. 100 against room rumble).
     #[arg(long, value_name = "HZ")]
     pub highpass_hz: Option<f64>,
+    #[command(flatten)]
+    pub take: crate::util::TakeArgs,
     /// Store the result in the library under this name.
     #[arg(long)]
     pub name: Option<String>,
@@ -138,9 +140,10 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     });
     let ap = AnalyzeParams {
         highpass_hz: a.highpass_hz,
+        strike: a.take.strike_index()?,
         ..AnalyzeParams::default()
     };
-    let (_, analysis) = analyze_file(&a.audio, &RecordingParams::default(), &ap)?;
+    let (_, analysis) = analyze_file(&a.audio, &a.take.recording(), &ap)?;
     warn_all(&analysis.warnings);
     let model = load_model(&a.mesh, a.scale, a.modes, &a.reference_material)?;
     let hit = snap(&model, query)?;

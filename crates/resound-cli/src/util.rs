@@ -158,3 +158,35 @@ pub fn warn_all(warnings: &[String]) {
 pub fn check_paths(inputs: &[&std::path::Path], outputs: &[&std::path::Path]) -> Result<()> {
     Ok(resound::files::check_outputs(inputs, outputs)?)
 }
+
+/// Which part of a recording to take (shared by `analyze` and `estimate`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct TakeArgs {
+    /// Use channel K (0-based) instead of the mix of all channels.
+    #[arg(long, value_name = "K")]
+    pub channel: Option<usize>,
+    /// Resample to this rate first (rubato; e.g. 48000 for a 384 kHz file).
+    #[arg(long, value_name = "HZ")]
+    pub resample_hz: Option<u32>,
+    /// Which strike to use when the file holds several (1 = first).
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    pub strike: usize,
+}
+
+impl TakeArgs {
+    /// The library's recording parameters.
+    pub fn recording(&self) -> resound::recording::RecordingParams {
+        resound::recording::RecordingParams {
+            channel: self.channel,
+            resample_hz: self.resample_hz,
+        }
+    }
+
+    /// The strike, 0-based.
+    pub fn strike_index(&self) -> Result<usize> {
+        if self.strike == 0 {
+            anyhow::bail!("--strike counts from 1");
+        }
+        Ok(self.strike - 1)
+    }
+}

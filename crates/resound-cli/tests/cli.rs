@@ -1466,4 +1466,54 @@ mod regression {
         );
         assert!(peak_dbfs(&d.join("s.wav")) < -90.0);
     }
+
+    #[test]
+    fn issue_15_a_384_khz_recording_is_resampled_on_request_without_bias() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let fs = 384_000.0;
+        let x: Vec<f32> = (0..384_000)
+            .map(|i| {
+                let t = f64::from(i) / fs;
+                (0.5 * (-20.0 * t).exp() * (std::f64::consts::TAU * 3000.0 * t).sin()) as f32
+            })
+            .collect();
+        resound::io::write_wav(
+            &d.join("hi.wav"),
+            &x,
+            384_000,
+            resound::io::WavFormat::Float32,
+        )
+        .unwrap();
+        fails_with(&resound(&["analyze", "hi.wav"], d), "--resample-hz 48000");
+        ok(&resound(
+            &[
+                "analyze",
+                "hi.wav",
+                "--resample-hz",
+                "44100",
+                "--json",
+                "a.json",
+            ],
+            d,
+        ));
+        let a: Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("a.json")).unwrap()).unwrap();
+        assert_eq!(a["sample_rate"], 44_100.0);
+        let m = &a["modes"][0];
+        assert!(
+            (m["freq_hz"].as_f64().unwrap() - 3000.0).abs() < 0.05,
+            "{m}"
+        );
+        assert!(
+            (m["damping_per_s"].as_f64().unwrap() / 20.0 - 1.0).abs() < 0.005,
+            "{m}"
+        );
+        assert!(
+            (m["amplitude"].as_f64().unwrap() / 0.5 - 1.0).abs() < 0.01,
+            "{m}"
+        );
+        // The noise floor stays far below the strike (the issue saw −64 dBFS after resampling).
+        assert!(a["noise_rms"].as_f64().unwrap() < 1e-5, "{a}");
+    }
 }

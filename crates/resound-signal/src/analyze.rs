@@ -101,7 +101,7 @@ pub enum AnalyzeError {
         onset_s: f64,
     },
     /// Sample rate outside 8–192 kHz.
-    #[error("sample rate {0} Hz is outside the supported 8000–192000 Hz")]
+    #[error("sample rate {0} Hz is outside the supported 8000–192000 Hz; resample it first (`--resample-hz 48000`)")]
     SampleRate(f64),
     /// `strike` beyond the strikes found.
     #[error("strike {} requested (counting from 1) but only {found} strike(s) found", requested + 1)]

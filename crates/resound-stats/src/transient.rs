@@ -82,7 +82,10 @@ fn fit_band(db: &[f64], dt: f64, centre: f64, cap_db: f64) -> (f64, f64) {
     let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
     let slope = sxy / sxx.max(1e-300);
     let at_onset = my - slope * (mx + centre);
-    (at_onset.clamp(ABSENT_DB, cap_db.max(top)), (-slope).max(0.0))
+    (
+        at_onset.clamp(ABSENT_DB, cap_db.max(top)),
+        (-slope).max(0.0),
+    )
 }
 
 /// Fits a transient with `bands` bands to `residual` (onset-aligned, at `sample_rate_hz`).
@@ -236,8 +239,8 @@ mod tests {
     }
 
     #[test]
-    fn issue_15_a_band_that_peaks_late_or_in_the_noise_is_absent_and_onsets_never_exceed_the_peak(
-    ) {
+    fn issue_15_a_band_that_peaks_late_or_in_the_noise_is_absent_and_onsets_never_exceed_the_peak()
+    {
         let fs = 48_000.0;
         let n = 48_000;
         let mut rng = SmallRng::seed_from_u64(9);
@@ -260,7 +263,11 @@ mod tests {
         let b5k = band(5000.0);
         // 0.2 amplitude: RMS −17 dB; within 6 dB (85 ms frames on a 520 dB/s decay), and no
         // band above the signal's peak.
-        assert!((fit.onset_db[b5k] + 17.0).abs() < 6.0, "{}", fit.onset_db[b5k]);
+        assert!(
+            (fit.onset_db[b5k] + 17.0).abs() < 6.0,
+            "{}",
+            fit.onset_db[b5k]
+        );
         let cap = 20.0 * x.iter().fold(0.0f64, |p, v| p.max(v.abs())).log10();
         assert!(fit.onset_db.iter().all(|&v| v <= cap), "{:?}", fit.onset_db);
         // Absent bands add nothing.

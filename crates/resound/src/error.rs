@@ -45,13 +45,15 @@ pub enum Error {
     /// A value the pipeline refuses, with the reason.
     #[error("{0}")]
     Invalid(String),
-    /// `source` happened while working on `what` (a file, a body, a step).
-    #[error("{what}: {source}")]
+    /// `cause` happened while working on `what` (a file, a body, a step). The message holds
+    /// the cause's; it is not also reported as [`std::error::Error::source`], so a chain
+    /// printer (anyhow's `{:#}`) says it once.
+    #[error("{what}: {cause}")]
     In {
         /// The file or step.
         what: String,
         /// The cause.
-        source: Box<Error>,
+        cause: Box<Error>,
     },
 }
 
@@ -60,7 +62,7 @@ impl Error {
     pub fn context(self, what: impl Into<String>) -> Self {
         Error::In {
             what: what.into(),
-            source: Box::new(self),
+            cause: Box::new(self),
         }
     }
 

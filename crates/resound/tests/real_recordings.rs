@@ -124,7 +124,11 @@ fn resynthesized_modes_sound_at_the_recorded_pitch_and_level() {
                 .map(|m| (m.freq_hz - m0.freq_hz).abs())
                 .fold(f64::INFINITY, f64::min);
             let tol = (2e-3 * m0.freq_hz).max(0.2 * m0.damping_per_s / std::f64::consts::PI);
-            assert!(near < tol, "{name}: {} Hz not found again ({near:.1} Hz off)", m0.freq_hz);
+            assert!(
+                near < tol,
+                "{name}: {} Hz not found again ({near:.1} Hz off)",
+                m0.freq_hz
+            );
         }
     }
 }
@@ -164,12 +168,23 @@ fn issue_15_stats_fitted_to_real_ceramic_strikes_put_the_transient_where_the_mod
         ..Default::default()
     };
     for seed in 0..4 {
-        let s = render_strike(Struck::Stats { stats: &stats, seed }, &p).unwrap();
+        let s = render_strike(
+            Struck::Stats {
+                stats: &stats,
+                seed,
+            },
+            &p,
+        )
+        .unwrap();
         let x: Vec<f64> = s.samples.iter().map(|&v| f64::from(v)).collect();
         let mut high = x.clone();
         resound::signal::filter::highpass_zero_phase(&mut high, 500.0, 48_000.0);
         let e = |v: &[f64]| v.iter().map(|s| s * s).sum::<f64>();
         let below = 1.0 - e(&high) / e(&x);
-        assert!(below < 0.05, "seed {seed}: {:.1} % below 500 Hz", 100.0 * below);
+        assert!(
+            below < 0.05,
+            "seed {seed}: {:.1} % below 500 Hz",
+            100.0 * below
+        );
     }
 }
