@@ -1516,4 +1516,28 @@ mod regression {
         // The noise floor stays far below the strike (the issue saw −64 dBFS after resampling).
         assert!(a["noise_rms"].as_f64().unwrap() < 1e-5, "{a}");
     }
+
+    #[test]
+    fn issue_15_grains_refuse_a_one_sample_or_silent_recording() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let f = resound::io::WavFormat::Float32;
+        resound::io::write_wav(&d.join("one.wav"), &[0.5], 44_100, f).unwrap();
+        resound::io::write_wav(&d.join("zero.wav"), &vec![0.0; 44_100], 44_100, f).unwrap();
+        fails_with(
+            &resound(
+                &["grains", "analyze", "impact:one.wav", "-o", "o.grains"],
+                d,
+            ),
+            "at least 20 ms",
+        );
+        fails_with(
+            &resound(
+                &["grains", "analyze", "impact:zero.wav", "-o", "o.grains"],
+                d,
+            ),
+            "silent",
+        );
+        assert!(!d.join("o.grains").exists());
+    }
 }

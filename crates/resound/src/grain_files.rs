@@ -44,11 +44,16 @@ fn contact_of(rule: KindRule, name: &str, x: &[f32], fs: f64) -> Contact {
     }
 }
 
+/// The shortest recording grains are cut from, s (a few grain lengths).
+pub const MIN_RECORDING_S: f64 = 0.02;
+
 /// Loads recordings (each spec a path, optionally prefixed `kind:`) as mono f32 at one rate
 /// (`rate`, else the first file's): the recordings, the rate, and the bytes on disk.
 ///
 /// # Errors
-/// Unreadable files; failed resampling.
+/// Unreadable files; failed resampling; recordings shorter than [`MIN_RECORDING_S`] or
+/// silent.
+
 pub fn load_recordings(
     specs: &[String],
     rule: KindRule,
@@ -72,6 +77,20 @@ pub fn load_recordings(
         let x = resound_signal::resample::resample(&x, clip.sample_rate_hz, target)
             .map_err(|e| invalid(e).at(path))?;
         let samples: Vec<f32> = x.iter().map(|&v| v as f32).collect();
+        let min = (MIN_RECORDING_S * f64::from(target)).ceil() as usize;
+        if samples.len() < min {
+            return Err(invalid(format!(
+                "{:.1} ms long: grains need at least {:.0} ms of audio",
+                1e3 * samples.len() as f64 / f64::from(target),
+                1e3 * MIN_RECORDING_S
+            ))
+            .at(path));
+        }
+        if samples.iter().all(|&v| v == samples[0]) {
+            return Err(
+                invalid("silent (every sample is the same): nothing to cut into grains").at(path),
+            );
+        }
         let name = path.file_stem().map_or(String::from("recording"), |s| {
             s.to_string_lossy().into_owned()
         });
