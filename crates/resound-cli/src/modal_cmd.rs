@@ -26,6 +26,10 @@ pub struct ModalArgs {
     /// Voxels along the longest side of the bounding box (surface meshes). Default: automatic (~6000 voxels).
     #[arg(long, default_value_t = 0)]
     pub resolution: usize,
+    /// Most elastic modes solved below the cutoff: more are refused before the solve (the
+    /// count comes first, from one factorization).
+    #[arg(long, default_value_t = 2000)]
+    pub max_modes: usize,
     /// Multiply mesh coordinates by this (0.001 for a file in mm).
     #[arg(long, default_value_t = 1.0)]
     pub scale: f64,
@@ -85,6 +89,7 @@ fn params(a: &ModalArgs) -> Result<ModalParams> {
         max_hole_edges: a.max_hole_edges,
         sturm_check: !a.no_sturm,
         threads: a.threads,
+        max_modes: a.max_modes,
         ..Default::default()
     })
 }

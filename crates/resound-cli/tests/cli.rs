@@ -1540,4 +1540,53 @@ mod regression {
         );
         assert!(!d.join("o.grains").exists());
     }
+
+    #[test]
+    fn issue_15_a_mesh_with_too_many_modes_below_the_cutoff_is_refused_at_once() {
+        // The teapot in unit scale (2 m) ran > 580 s at 4.3 GB: the modes below the cutoff
+        // are now counted first (one factorization) and the solve refused with a hint.
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        ok(&resound(
+            &[
+                "mesh",
+                "primitive",
+                "box",
+                "--size",
+                "2,1.5,1",
+                "-o",
+                "big.obj",
+            ],
+            d,
+        ));
+        let out = resound(
+            &[
+                "modal",
+                "big.obj",
+                "-m",
+                "steel",
+                "--max-modes",
+                "40",
+                "--resolution",
+                "24",
+            ],
+            d,
+        );
+        fails_with(&out, "eigenvalues below 20000 Hz, more than the 46 allowed");
+        fails_with(&out, "--scale");
+        // Asking for a count, or a lower cutoff, works.
+        ok(&resound(
+            &[
+                "modal",
+                "big.obj",
+                "-m",
+                "steel",
+                "--modes",
+                "5",
+                "--resolution",
+                "24",
+            ],
+            d,
+        ));
+    }
 }

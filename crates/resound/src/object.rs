@@ -60,11 +60,33 @@ pub fn solve_mesh_file(
         LoadedMesh::Surface(s) => Geometry::Surface(s),
         LoadedMesh::Tets(t) => Geometry::Tets(t),
     };
+    let points = match &mesh {
+        LoadedMesh::Surface(s) => &s.vertices,
+        LoadedMesh::Tets(t) => &t.nodes,
+    };
+    let (lo, hi) = resound_core::geometry::bbox(points);
+    let size_m = (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
     ModalBuilder::new(geometry, material)
         .params(params.clone())
         .progress(progress)
         .solve()
-        .map_err(|e| Error::from(e).at(path))
+        .map_err(|e| {
+            let too_many = matches!(
+                e,
+                resound_modal::ModelError::Eigen(resound_modal::ModalError::TooManyModes { .. })
+            );
+            let e = Error::from(e);
+            if too_many {
+                crate::error::invalid(format!(
+                    "{e}. The object spans {size_m:.3} m: if the file is not in metres pass \
+                     --scale (0.001 for millimetres), else lower --max-freq-hz, ask for \
+                     --modes N or raise --max-modes"
+                ))
+                .at(path)
+            } else {
+                e.at(path)
+            }
+        })
 }
 
 /// The modal model of the object in `path`: loaded from a `.rmodal`, or solved from a mesh.
