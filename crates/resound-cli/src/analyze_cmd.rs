@@ -24,15 +24,15 @@ pub struct AnalyzeArgs {
     pub max_modes: usize,
     /// Drop modes whose level (RMS over the first 0.25 s) is more than this many dB below the
     /// strongest's.
-    #[arg(long, default_value_t = 60.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 60.0)]
     pub min_db: f64,
     /// Zero-phase 4th-order Butterworth high-pass first (e.g. 100 against room rumble).
-    #[arg(long, value_name = "HZ")]
+    #[arg(allow_hyphen_values = true, long, value_name = "HZ")]
     pub highpass_hz: Option<f64>,
     #[command(flatten)]
     pub take: crate::util::TakeArgs,
     /// Analyse at most this many seconds after the onset.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 5.0)]
     pub max_duration_s: f64,
     /// Stop after Ren's spectrogram stage (no time-domain refinement).
     #[arg(long)]

@@ -27,7 +27,7 @@ pub struct EstimateArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub hit: String,
     /// Scale applied to the mesh coordinates (0.001 for millimetres).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub scale: f64,
     /// Elastic modes to compute when a mesh is given.
     #[arg(long, default_value_t = 200)]
@@ -36,7 +36,7 @@ pub struct EstimateArgs {
     #[arg(long, default_value = "ceramic")]
     pub reference_material: String,
     /// Zero-phase high-pass before analysis (e.g. 100 against room rumble).
-    #[arg(long, value_name = "HZ")]
+    #[arg(allow_hyphen_values = true, long, value_name = "HZ")]
     pub highpass_hz: Option<f64>,
     #[command(flatten)]
     pub take: crate::util::TakeArgs,

@@ -54,11 +54,11 @@ pub struct AnalyzeArgs {
     #[arg(long)]
     pub peaks: Option<usize>,
     /// Smallest correlation a pattern peak may have.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 0.5)]
     pub min_corr: f64,
     /// Keep only the grains needed: drop each grain that another grain can stand in for at
     /// this correlation (e.g. 0.8). Smaller file, less exact rebuilds.
-    #[arg(long, value_name = "CORR")]
+    #[arg(allow_hyphen_values = true, long, value_name = "CORR")]
     pub prune: Option<f64>,
     /// Output dictionary (.grains).
     #[arg(short, long)]
@@ -77,10 +77,10 @@ pub struct ResynthArgs {
     #[arg(long)]
     pub recording: String,
     /// Time-scale factor α (2: twice as long).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub time_scale: f64,
     /// Variation 0–1: pick among the grains within this of the best match (similar, not identical).
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 0.0)]
     pub variation: f64,
     /// Seed of the variation.
     #[arg(long, default_value_t = 1)]

@@ -24,7 +24,7 @@ pub struct PrimitiveArgs {
     #[arg(value_parser = parse_kind)]
     pub kind: PrimitiveKind,
     /// Comma-separated sizes in m (see the shape).
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub size: String,
     /// Segments around curved shapes.
     #[arg(long, default_value_t = 48)]
@@ -40,7 +40,7 @@ pub struct CheckArgs {
     /// The mesh file.
     pub mesh: PathBuf,
     /// Multiply coordinates by this.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub scale: f64,
     /// Fill holes with at most this many boundary edges.
     #[arg(long, default_value_t = 0)]

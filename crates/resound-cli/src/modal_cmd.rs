@@ -21,7 +21,7 @@ pub struct ModalArgs {
     #[arg(long, conflicts_with = "max_freq_hz")]
     pub modes: Option<usize>,
     /// Frequency cutoff in Hz [default: 20000 when --modes is not given].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub max_freq_hz: Option<f64>,
     /// Voxels along the longest side of the bounding box (surface meshes). Default: automatic (~6000 voxels).
     #[arg(long, default_value_t = 0)]
@@ -31,7 +31,7 @@ pub struct ModalArgs {
     #[arg(long, default_value_t = 2000)]
     pub max_modes: usize,
     /// Multiply mesh coordinates by this (0.001 for a file in mm).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub scale: f64,
     /// Write the modal model here (.rmodal).
     #[arg(short = 'o', long)]
@@ -40,7 +40,7 @@ pub struct ModalArgs {
     #[arg(long)]
     pub json: bool,
     /// Hit point x,y,z (m, after --scale): each mode also gets its gain (u.n/omega) there.
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub hit: Option<String>,
     /// Write K and M as Matrix Market files K.mtx and M.mtx into this directory.
     #[arg(long)]
@@ -67,8 +67,12 @@ pub struct ModelInfoArgs {
     /// Rescale to this material (same Poisson ratio) without a new solve.
     #[arg(long, short = 'm')]
     pub material: Option<String>,
+    /// With --material: take its E/ρ but keep the model's Poisson ratio (exact for that ν;
+    /// only an approximation of the other material's modes, whose shapes depend on ν).
+    #[arg(long, requires = "material")]
+    pub keep_nu: bool,
     /// Hit point x,y,z (m): print per-mode gains there.
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub hit: Option<String>,
     /// JSON on stdout.
     #[arg(long)]
@@ -182,7 +186,20 @@ pub fn run_info(a: ModelInfoArgs) -> Result<()> {
     let mut model = model_file::load(&a.model)?;
     let load_ms = t0.elapsed().as_secs_f64() * 1e3;
     if let Some(m) = &a.material {
-        model = model.rescaled(&Material::parse(m)?)?;
+        let mut target = Material::parse(m)?;
+        if a.keep_nu {
+            if (target.poisson_ratio - model.material.poisson_ratio).abs() > 1e-12 {
+                eprintln!(
+                    "note: keeping the model's Poisson ratio {} (not {}): frequencies scale \
+                     exactly by E/ρ, but they are the modes of a material with that ν",
+                    model.material.poisson_ratio, target.poisson_ratio
+                );
+            }
+            target.poisson_ratio = model.material.poisson_ratio;
+        }
+        model = model
+            .rescaled(&target)
+            .map_err(|e| anyhow::anyhow!("{e} (or pass --keep-nu to take only its E/ρ)"))?;
     }
     let hit = a
         .hit

@@ -7,10 +7,35 @@ use resound::scene::{render_scene, SceneRenderParams, SceneSummary};
 use serde::Serialize;
 use std::path::PathBuf;
 
+/// The scene format, shown by `resound scene --help`.
+const FORMAT: &str = "\
+Scene file (TOML; y is up, SI units):
+  duration = 4.0            # s
+  sample_rate = 48000       # Hz
+  seed = 7
+  stereo = true
+  [listener]
+  position = [0.0, 0.35, 0.7]
+  [[body]]                  # one table per body
+  name = \"ball\"
+  shape = { sphere = 0.02 } # or box = [x, y, z], plate = [x, y, thickness],
+                            # cylinder = [radius, height], bowl = [radius, thickness, depth],
+                            # mesh = \"file.obj\"
+  material = \"metal\"      # library or built-in name, material file, or preset:NAME
+  density = 7850            # kg/m³
+  position = [0, 0.3, 0]    # m; also rotation (degrees), velocity (m/s),
+                            # angular_velocity (rad/s), restitution, friction
+  fixed = false             # a fixed body (the table) does not move
+  modes = 40                # modes solved for its sound
+  # sound = { grains = \"x.grains\", gain = 1.0 } or { stats = \"x.stats.json\" }
+Every field: the docs of resound_io::scene::BodyFile. A full example: assets/scenes/demo.toml
+(`resound demo` writes it with its materials to demo-out/scene.toml).";
+
 /// Arguments of `scene`.
 #[derive(Args, Debug)]
+#[command(after_long_help = FORMAT)]
 pub struct SceneArgs {
-    /// Scene file (TOML; see `resound scene --help` and the docs of resound_io::scene).
+    /// Scene file (TOML: bodies, materials, listener; the format is at the end of --help).
     pub scene: PathBuf,
     /// Output WAV (stereo unless the scene says `stereo = false`).
     #[arg(short, long)]
@@ -31,7 +56,7 @@ pub struct SceneArgs {
     #[arg(long)]
     pub json: bool,
     /// Also play the result (needs the `live` build feature).
-    #[arg(long)]
+    #[arg(long, hide = !cfg!(feature = "live"))]
     pub play: bool,
     /// Keep the physical level (σ-calibrated) instead of normalizing the peak to −1 dBFS; a mix
     /// that would clip is still turned down.

@@ -36,33 +36,34 @@ pub struct ScrapeArgs {
     pub surface: String,
     /// Sample spacing of the surface profile, m (the PyImpact profiles' spacing is not
     /// documented; 10 µm is our assumption).
-    #[arg(long, default_value_t = 1e-5)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1e-5)]
     pub surface_spacing_m: f64,
     /// RMS height of the fractal surface, m.
-    #[arg(long, default_value_t = 5e-6)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 5e-6)]
     pub roughness_m: f64,
     /// Trajectory CSV: `time_s,position_m` per line (position along the surface).
     #[arg(long, conflicts_with = "speed")]
     pub trajectory: Option<PathBuf>,
     /// Constant scraping speed instead of a trajectory, m/s.
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub speed: Option<f64>,
     /// Length of the output, s.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 2.0)]
     pub duration: f64,
     /// Probe mass, kg.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 0.01)]
     pub probe_mass: f64,
     /// Shear-friction coefficient A of eq. 8.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 100.0)]
     pub friction: f64,
     /// Exponent γ of eq. 8.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub gamma: f64,
     /// Width of the probe's tip, m (it smooths the texture: a spatial low-pass).
-    #[arg(long, default_value_t = 2e-4)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 2e-4)]
     pub tip_width: f64,
-    /// Location-dependent IRs along the path (eq. 9).
+    /// Location-dependent IRs along the path (eq. 9), 1–256 (each one renders the whole path
+    /// once).
     #[arg(long, default_value_t = 8)]
     pub irs: usize,
     /// Seed (IR sample, surface, quilting, IR variation).

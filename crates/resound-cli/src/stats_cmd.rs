@@ -26,7 +26,7 @@ pub struct FitArgs {
     #[arg(long, default_value_t = 15)]
     pub modes: usize,
     /// Zero-phase high-pass before analysis.
-    #[arg(long, value_name = "HZ")]
+    #[arg(allow_hyphen_values = true, long, value_name = "HZ")]
     pub highpass_hz: Option<f64>,
     /// Output statistics file (JSON).
     #[arg(short, long)]

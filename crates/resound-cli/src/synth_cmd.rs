@@ -79,10 +79,10 @@ pub struct SynthArgs {
     #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
     pub velocity: f64,
     /// Impactor mass, kg (default: a sphere of --impactor-radius of the impactor material).
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub impactor_mass: Option<f64>,
     /// Impactor radius at the contact, m.
-    #[arg(long, default_value_t = 0.005)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 0.005)]
     pub impactor_radius: f64,
     /// Impactor material (preset name or E,nu,rho).
     #[arg(long, default_value = "steel")]
@@ -94,13 +94,13 @@ pub struct SynthArgs {
     #[arg(long)]
     pub no_residual: bool,
     /// Length of the output, s.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 2.0)]
     pub duration: f64,
     /// Output sample rate, Hz.
     #[arg(long, default_value_t = 48_000)]
     pub sample_rate: u32,
     /// Scale applied to mesh coordinates (0.001 for millimetres).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub scale: f64,
     /// Elastic modes to compute when a mesh is given.
     #[arg(long, default_value_t = 200)]
@@ -123,7 +123,7 @@ pub struct SynthArgs {
     pub json: bool,
     /// Also play it on the default audio device (the engine runs in the audio callback; needs
     /// the `live` build feature).
-    #[arg(long)]
+    #[arg(long, hide = !cfg!(feature = "live"))]
     pub play: bool,
 }
 

@@ -58,8 +58,29 @@ pub fn load_mesh(path: &Path, scale: f64) -> Result<LoadedMesh> {
     if scale != 1.0 {
         m.scale(scale);
     }
+    let points = match &m {
+        LoadedMesh::Surface(s) => &s.vertices,
+        LoadedMesh::Tets(t) => &t.nodes,
+    };
+    if let Some((i, p)) = points.iter().enumerate().find(|(_, p)| {
+        !p.iter()
+            .all(|c| c.is_finite() && c.abs() <= MAX_COORDINATE_M)
+    }) {
+        return Err(parse_err(
+            path,
+            format!(
+                "vertex {} at {p:?} m (after --scale {scale}) lies beyond ±{MAX_COORDINATE_M:e} m: not a \
+                 credible object coordinate",
+                i + 1
+            ),
+        ));
+    }
     Ok(m)
 }
+
+/// Largest coordinate a mesh may hold, m (after scaling): a sounding object is not 1000 km
+/// from the origin, and beyond it voxelization would see one point.
+pub const MAX_COORDINATE_M: f64 = 1e6;
 
 pub(crate) fn read(path: &Path) -> Result<Vec<u8>> {
     let b = std::fs::read(path).map_err(|e| io_err(path, e))?;
@@ -69,8 +90,49 @@ pub(crate) fn read(path: &Path) -> Result<Vec<u8>> {
     Ok(b)
 }
 
+/// The first `v` or `f` line of an OBJ that tobj would refuse, named by line number (tobj's own
+/// message says "position parse error" for a bad face index).
+fn obj_first_bad_line(text: &str) -> Option<String> {
+    let mut vertices: i64 = 0;
+    for (no, line) in text.lines().enumerate() {
+        let mut w = line.split_whitespace();
+        match w.next() {
+            Some("v") => {
+                let ok = w.take(3).filter(|t| t.parse::<f64>().is_ok()).count() == 3;
+                if !ok {
+                    return Some(format!(
+                        "line {}: a vertex needs 3 numbers: {line:?}",
+                        no + 1
+                    ));
+                }
+                vertices += 1;
+            }
+            Some("f") => {
+                let corners: Vec<&str> = w.collect();
+                if corners.len() < 3 {
+                    return Some(format!("line {}: a face needs 3 corners: {line:?}", no + 1));
+                }
+                for c in corners {
+                    let i = c.split('/').next().and_then(|v| v.parse::<i64>().ok());
+                    let fine =
+                        i.is_some_and(|i| (i > 0 && i <= vertices) || (i < 0 && -i <= vertices));
+                    if !fine {
+                        return Some(format!(
+                            "line {}: face corner {c:?} is not one of the {vertices} vertices defined above it",
+                            no + 1
+                        ));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
 fn load_obj(path: &Path) -> Result<SurfaceMesh> {
     let bytes = read(path)?;
+    let text = String::from_utf8_lossy(&bytes).into_owned();
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
@@ -79,7 +141,10 @@ fn load_obj(path: &Path) -> Result<SurfaceMesh> {
     let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(bytes), &opts, |_| {
         Err(tobj::LoadError::GenericFailure)
     })
-    .map_err(|e| parse_err(path, format!("OBJ: {e}")))?;
+    .map_err(|e| match obj_first_bad_line(&text) {
+        Some(why) => parse_err(path, format!("OBJ: {why}")),
+        None => parse_err(path, format!("OBJ: {e}")),
+    })?;
     let mut m = SurfaceMesh::default();
     for model in models {
         let mesh = model.mesh;
@@ -111,6 +176,29 @@ fn load_obj(path: &Path) -> Result<SurfaceMesh> {
 
 fn load_stl(path: &Path) -> Result<SurfaceMesh> {
     let bytes = read(path)?;
+    // Binary STL: 80-byte header, facet count, 50 bytes a facet. stl_io says only "failed to
+    // fill whole buffer" when the file is shorter than its count.
+    if !bytes.starts_with(b"solid") && bytes.len() >= 84 {
+        let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as usize;
+        let want = 84 + 50 * n;
+        if bytes.len() < want {
+            return Err(parse_err(
+                path,
+                format!(
+                    "STL: truncated: the header promises {n} facets ({want} bytes), the file has {} bytes",
+                    bytes.len()
+                ),
+            ));
+        }
+    } else if !bytes.starts_with(b"solid") {
+        return Err(parse_err(
+            path,
+            format!(
+                "STL: {} bytes is shorter than a binary STL header (84)",
+                bytes.len()
+            ),
+        ));
+    }
     let mut cur = std::io::Cursor::new(bytes);
     let stl = stl_io::read_stl(&mut cur).map_err(|e| parse_err(path, format!("STL: {e}")))?;
     let m = SurfaceMesh {

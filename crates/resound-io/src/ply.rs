@@ -159,7 +159,20 @@ pub(crate) fn load_ply(path: &Path) -> Result<SurfaceMesh> {
         pos: pos + 1,
         fmt,
     };
-    let truncated = || parse_err(path, "PLY: body is truncated or malformed");
+    let declared = elements
+        .iter()
+        .map(|e| format!("{} {}", e.name, e.count))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let truncated = || {
+        parse_err(
+            path,
+            format!(
+                "PLY: the body ends (or holds a non-number) before the header's counts ({declared}) \
+                 are read"
+            ),
+        )
+    };
     let mut m = SurfaceMesh::default();
     for el in &elements {
         for _ in 0..el.count {
@@ -209,7 +222,33 @@ pub(crate) fn load_ply(path: &Path) -> Result<SurfaceMesh> {
         }
     }
     if m.triangles.is_empty() {
-        return Err(parse_err(path, "PLY: no faces"));
+        return Err(parse_err(
+            path,
+            format!("PLY: no faces (the header declares {declared})"),
+        ));
+    }
+    if r.fmt == Fmt::Ascii && r.token().is_some() {
+        return Err(parse_err(
+            path,
+            format!(
+                "PLY: more data after the last element than the header's counts ({declared}) \
+                 describe"
+            ),
+        ));
+    }
+    let nv = m.vertices.len();
+    if let Some(t) = m
+        .triangles
+        .iter()
+        .find(|t| t.iter().any(|&i| i as usize >= nv))
+    {
+        return Err(parse_err(
+            path,
+            format!(
+                "PLY: a face refers to vertex {:?} but there are {nv} vertices",
+                t
+            ),
+        ));
     }
     Ok(m)
 }

@@ -319,7 +319,7 @@ pub fn read_scene(path: &Path) -> Result<SceneFile, SceneFileError> {
 pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> {
     let scene: SceneFile = toml::from_str(text).map_err(|e| SceneFileError::Parse {
         path: path.to_string(),
-        message: e.to_string().trim_end().replace('\n', " | "),
+        message: e.to_string().trim_end().to_string(),
     })?;
     let line_of = |offset: usize| text[..offset.min(text.len())].matches('\n').count() + 1;
     let line_of_key = |key: &str| {

@@ -106,6 +106,79 @@ fn image_png(pixels: &[u8], w: u32, h: u32) -> Result<Vec<u8>> {
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
 
+/// A title for a caption: a path becomes its file name, and a long one is cut with "…" (the
+/// full path was cut off at the image's edge).
+pub fn short_title(title: &str) -> String {
+    let name = std::path::Path::new(title)
+        .file_name()
+        .map_or_else(|| title.to_string(), |n| n.to_string_lossy().into_owned());
+    if name.chars().count() > 48 {
+        let head: String = name.chars().take(47).collect();
+        format!("{head}…")
+    } else {
+        name
+    }
+}
+
+/// Tick labels of a log axis at 1, 2 and 5 × 10^k (the axis asks for every 1–9 × 10^k: with
+/// plotters' default a decade-wide axis had one label).
+fn log_label(v: f64) -> String {
+    if !(v > 0.0) {
+        return String::new();
+    }
+    let e = v.log10().floor();
+    let mantissa = (v / 10f64.powf(e)).round();
+    if ![1.0, 2.0, 5.0].contains(&mantissa) || ((v / 10f64.powf(e)) - mantissa).abs() > 0.05 {
+        return String::new();
+    }
+    if v >= 1.0 {
+        format!("{v:.0}")
+    } else {
+        format!("{v:.prec$}", prec = (-e) as usize)
+    }
+}
+
+/// The power of ten at or below `v` (plotters labels a log axis only from its first power of
+/// ten on).
+fn decade_below(v: f64) -> f64 {
+    10f64.powf(v.log10().floor())
+}
+
+/// Labels requested on a log axis so that plotters places 1–9 × 10^k.
+const LOG_LABELS: usize = 60;
+
+/// A vertical colour bar for `colour` from `lo` to `hi` (labelled in `unit`).
+fn draw_colour_bar(
+    area: &Area<'_>,
+    lo: f64,
+    hi: f64,
+    unit: &str,
+    map: &dyn Fn(f64) -> f64,
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    let mut chart = ChartBuilder::on(area)
+        .margin_top(38)
+        .margin_bottom(50)
+        .margin_right(6)
+        .y_label_area_size(46)
+        .build_cartesian_2d(0.0..1.0, lo..hi)?;
+    chart
+        .configure_mesh()
+        .disable_x_axis()
+        .disable_mesh()
+        .y_labels(6)
+        .y_label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 13))
+        .y_desc(unit)
+        .draw()?;
+    let n = 100;
+    chart.draw_series((0..n).map(|i| {
+        let a = lo + (hi - lo) * i as f64 / n as f64;
+        let b = lo + (hi - lo) * (i + 1) as f64 / n as f64;
+        Rectangle::new([(0.0, a), (1.0, b)], colour(map(0.5 * (a + b))).filled())
+    }))?;
+    Ok(())
+}
+
 /// Spectrogram of a signal (the first of `channels`), written atomically to `path`.
 pub fn spectrogram_png(path: &Path, x: &[f64], sample_rate_hz: f64, title: &str) -> Result<()> {
     register_font();
@@ -175,8 +248,23 @@ fn draw_spectrogram_of(
         .iter()
         .map(|m| 3.0 * std::f64::consts::LN_10 / m.damping_per_s)
         .fold(0.1, f64::max);
-    let t_end = span_s.unwrap_or((seg.len() as f64 / fs).min(1.1 * t60_max));
-    let mut chart = ChartBuilder::on(area)
+    // ... but not so long that the strike is a sliver: the T60 of the modes within 20 dB of
+    // the strongest decides, when it is shorter.
+    let strongest_a = res.modes.iter().map(|m| m.amplitude).fold(0.0, f64::max);
+    let mut loud_t60: Vec<f64> = res
+        .modes
+        .iter()
+        .filter(|m| m.amplitude > 0.1 * strongest_a)
+        .map(|m| 3.0 * std::f64::consts::LN_10 / m.damping_per_s)
+        .collect();
+    loud_t60.sort_by(f64::total_cmp);
+    let t_show = loud_t60
+        .get(loud_t60.len() / 2)
+        .map_or(t60_max, |&t| (1.5 * t).clamp(0.1, t60_max));
+    let t_end = span_s.unwrap_or((seg.len() as f64 / fs).min(1.1 * t_show));
+    let (area, bar) = area.split_horizontally(area.dim_in_pixel().0.saturating_sub(80));
+    let title = short_title(title);
+    let mut chart = ChartBuilder::on(&area)
         .caption(
             if res.modes.is_empty() {
                 format!("{title}: spectrogram")
@@ -193,6 +281,7 @@ fn draw_spectrogram_of(
         .configure_mesh()
         .x_desc("time after onset (s)")
         .y_desc("frequency (Hz)")
+        .y_label_formatter(&|v| format!("{v:.0}"))
         .disable_mesh()
         .draw()?;
     let db: Vec<f64> = spec
@@ -202,6 +291,7 @@ fn draw_spectrogram_of(
         .collect();
     let top = db.iter().copied().fold(f64::MIN, f64::max);
     let floor = top - 90.0;
+    draw_colour_bar(&bar, -90.0, 0.0, "dB re peak", &|v| (v + 90.0) / 90.0)?;
     let plot = chart.plotting_area();
     let (px_w, px_h) = plot.dim_in_pixel();
     for py in 0..px_h {
@@ -257,12 +347,18 @@ fn draw_features(
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d((f_min..f_max).log_scale(), (d_min..d_max).log_scale())?;
+        .build_cartesian_2d(
+            (decade_below(f_min)..f_max).log_scale(),
+            (decade_below(d_min)..d_max).log_scale(),
+        )?;
     chart
         .configure_mesh()
-        .x_labels(6)
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_label_formatter(&|v| format!("{v}"))
+        .x_labels(LOG_LABELS)
+        .y_labels(LOG_LABELS)
+        .x_label_formatter(&|v| log_label(*v))
+        .y_label_formatter(&|v| log_label(*v))
+        .light_line_style(RGBColor(238, 238, 238))
+        .bold_line_style(RGBColor(200, 200, 200))
         .x_desc("frequency (Hz)")
         .y_desc("damping (1/s)")
         .draw()?;
@@ -344,19 +440,25 @@ fn draw_estimate_features(
         .caption(
             format!(
                 "{}: recorded (red) vs estimated (blue) features; Rayleigh curve α = {:.3} 1/s, β = {:.3e} s",
-                p.title, p.alpha, p.beta
+                short_title(p.title), p.alpha, p.beta
             ),
             ("sans-serif", 17),
         )
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(60)
-        .build_cartesian_2d((f_min..f_max).log_scale(), (d_min..d_max).log_scale())?;
+        .build_cartesian_2d(
+            (decade_below(f_min)..f_max).log_scale(),
+            (decade_below(d_min)..d_max).log_scale(),
+        )?;
     chart
         .configure_mesh()
-        .x_labels(8)
-        .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_label_formatter(&|v| format!("{v}"))
+        .x_labels(LOG_LABELS)
+        .y_labels(LOG_LABELS)
+        .x_label_formatter(&|v| log_label(*v))
+        .y_label_formatter(&|v| log_label(*v))
+        .light_line_style(RGBColor(238, 238, 238))
+        .bold_line_style(RGBColor(200, 200, 200))
         .x_desc("frequency (Hz)")
         .y_desc("damping (1/s)")
         .draw()?;
@@ -407,7 +509,9 @@ fn draw_loudness(
     let g = &image.grid;
     let frames = g.frames.max(1);
     let t_end = (frames * g.hop) as f64 / g.sample_rate_hz;
-    let mut chart = ChartBuilder::on(area)
+    let (area, bar) = area.split_horizontally(area.dim_in_pixel().0.saturating_sub(80));
+    draw_colour_bar(&bar, 0.0, vmax, "sone", &|v| (v / vmax).sqrt())?;
+    let mut chart = ChartBuilder::on(&area)
         .caption(title, ("sans-serif", 17))
         .margin(10)
         .x_label_area_size(40)

@@ -86,6 +86,12 @@ pub enum AnalyzeError {
     /// NaN or infinite samples.
     #[error("the audio holds a non-finite sample (NaN or infinity) at index {0}")]
     NonFinite(usize),
+    /// Every sample holds the same value (a DC offset only).
+    #[error("the audio is constant ({value:+.4} full scale: a DC offset and nothing else); there is no strike in it")]
+    Constant {
+        /// The value every sample holds.
+        value: f64,
+    },
     /// All zero or below −140 dBFS.
     #[error("the audio is silent (peak {peak_dbfs:.1} dBFS)")]
     Silent {
@@ -160,6 +166,15 @@ pub fn analyze(
         return Err(AnalyzeError::Silent {
             peak_dbfs: 20.0 * peak.max(1e-300).log10(),
         });
+    }
+    // A constant signal (a DC offset and nothing else) has no strike; it is not "clipped".
+    let (lo, hi) = x
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    if hi - lo <= 1e-7 {
+        return Err(AnalyzeError::Constant { value: x[0] });
     }
     let sc = scan(&x, sample_rate_hz);
     let mut warnings = Vec::new();

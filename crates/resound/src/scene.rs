@@ -82,12 +82,17 @@ fn geometry(b: &BodyFile, base_dir: &Path) -> Result<(SurfaceMesh, Shape)> {
     })
 }
 
+/// Modal models solved during one scene build, by content hash: identical bodies are solved
+/// once even without a cache directory.
+type Solved = std::collections::HashMap<u64, std::sync::Arc<ModalModel>>;
+
 fn modal_model(
     mesh: &SurfaceMesh,
     material: &Material,
     b: &BodyFile,
     cache_dir: Option<&Path>,
-) -> Result<ModalModel> {
+    solved: &mut Solved,
+) -> Result<std::sync::Arc<ModalModel>> {
     let mut hash = Fnv1a::new();
     for v in &mesh.vertices {
         for c in v {
@@ -109,9 +114,14 @@ fn modal_model(
     hash.write(&(b.modes as u64).to_le_bytes());
     hash.write(&(b.resolution as u64).to_le_bytes());
     let h = hash.finish();
+    if let Some(m) = solved.get(&h) {
+        return Ok(std::sync::Arc::clone(m));
+    }
     let file = cache_dir.map(|d| d.join(format!("{h:016x}.rmodal")));
     if let Some(f) = &file {
         if let Ok(m) = resound_io::model_file::load(f) {
+            let m = std::sync::Arc::new(m);
+            solved.insert(h, std::sync::Arc::clone(&m));
             return Ok(m);
         }
     }
@@ -134,6 +144,8 @@ fn modal_model(
         }
         let _ = resound_io::model_file::save(f, &model);
     }
+    let model = std::sync::Arc::new(model);
+    solved.insert(h, std::sync::Arc::clone(&model));
     Ok(model)
 }
 
@@ -238,15 +250,27 @@ fn surface_of(
     Ok(Some(std::sync::Arc::new(s)))
 }
 
+/// Most bodies in one scene.
+pub const MAX_BODIES: usize = 4096;
+
 /// Builds the bodies and settings of `scene`.
 ///
 /// # Errors
-/// A body whose material, geometry, sound or surface fails (the error names the body).
+/// More than [`MAX_BODIES`] bodies; a body whose material, geometry, sound or surface fails
+/// (the error names the body). Identical sounding bodies share one modal solve.
 pub fn build_scene(
     scene: &SceneFile,
     opts: &BuildOptions<'_>,
 ) -> Result<(Vec<BodySpec>, SceneParams)> {
     let fs = f64::from(scene.sample_rate);
+    if scene.body.len() > MAX_BODIES {
+        return Err(invalid(format!(
+            "{} bodies: a scene takes at most {MAX_BODIES} (each sounding body keeps its own \
+             gains at every surface vertex)",
+            scene.body.len()
+        )));
+    }
+    let mut solved = Solved::new();
     let mut bodies = Vec::with_capacity(scene.body.len());
     let mut loaded: std::collections::HashMap<
         std::path::PathBuf,
@@ -303,7 +327,8 @@ pub fn build_scene(
                 poisson_ratio: b.poisson,
                 density: b.density,
             };
-            let model = modal_model(&mesh, &elastic, b, opts.cache_dir.as_deref()).map_err(fail)?;
+            let model = modal_model(&mesh, &elastic, b, opts.cache_dir.as_deref(), &mut solved)
+                .map_err(fail)?;
             Some(body_sound(&model, &material, b.poisson, fs))
         } else {
             None

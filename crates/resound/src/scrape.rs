@@ -92,7 +92,7 @@ pub struct ScrapeJob {
     pub path: Path1d,
     /// Eq. 8's probe, friction, exponent and tip.
     pub params: ScrapeParams,
-    /// Location-dependent IRs along the path (eq. 9).
+    /// Location-dependent IRs along the path (eq. 9), 1 to [`MAX_IRS`].
     pub irs: usize,
     /// Seed (surface, quilting, IR variation).
     pub seed: u64,
@@ -102,10 +102,15 @@ pub struct ScrapeJob {
     pub sample_rate_hz: u32,
 }
 
+/// Most location-dependent IRs a scrape takes: the cost is linear in them, and Traer's
+/// variation between neighbours is smooth long before this.
+pub const MAX_IRS: usize = 256;
+
 /// Renders `job`: the sound (not normalized) and the length of the path scraped, m.
 ///
 /// # Errors
-/// Parameters out of range, an unusable surface, no modes below Nyquist.
+/// Parameters out of range (IRs beyond [`MAX_IRS`]), an unusable surface, no modes below
+/// Nyquist.
 pub fn render_scrape(job: &ScrapeJob) -> Result<(Vec<f32>, f64)> {
     let fs = f64::from(job.sample_rate_hz);
     let p = &job.params;
@@ -127,6 +132,12 @@ pub fn render_scrape(job: &ScrapeJob) -> Result<(Vec<f32>, f64)> {
         return Err(invalid(
             "probe mass must be > 0, friction ≥ 0 and gamma in (0, 4]",
         ));
+    }
+    if !(1..=MAX_IRS).contains(&job.irs) {
+        return Err(invalid(format!(
+            "IRs along the path must be 1–{MAX_IRS} (each renders the whole path once), got {}",
+            job.irs
+        )));
     }
     let samples = (job.duration_s * fs).round() as usize;
     let x = match &job.path {
