@@ -414,3 +414,29 @@ fn issue_15_gains_follow_the_bending_shape_along_a_primitive_bar() {
         );
     }
 }
+
+#[test]
+fn issue_15_any_mode_count_converges_on_a_cube_and_keeps_the_lower_modes() {
+    // A 100 mm steel cube: its eigenvalues come in clusters of 2 and 3 (symmetry). `--modes 5`
+    // always failed ("converged 6/21 modes") while 4 and 6 worked.
+    let cube = primitive::bar([0.1, 0.1, 0.1]);
+    // The default grid (19³ voxels), where the failure was seen.
+    let solve = |n: usize| {
+        ModalBuilder::surface(&cube, &steel())
+            .modes(n)
+            .solve()
+            .unwrap_or_else(|e| panic!("--modes {n}: {e}"))
+            .model
+    };
+    let all = solve(12);
+    for n in 1..12 {
+        let m = solve(n);
+        assert_eq!(m.n_modes(), n);
+        for (j, (a, b)) in m.eigenvalues.iter().zip(&all.eigenvalues).enumerate() {
+            assert!(
+                (a / b - 1.0).abs() < 1e-6,
+                "--modes {n}, mode {j}: {a} vs {b}"
+            );
+        }
+    }
+}
