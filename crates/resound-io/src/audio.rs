@@ -67,20 +67,28 @@ impl AudioClip {
 /// Anything that is not RIFF/WAVE, or too short to tell, is left to the decoder.
 fn check_wav_header(mut file: &std::fs::File, path: &Path) -> Result<()> {
     use std::io::{Read, Seek, SeekFrom};
-    let mut head = [0u8; 4096];
-    let mut n = 0;
-    while n < head.len() {
-        match file.read(&mut head[n..]) {
-            Ok(0) => break,
-            Ok(k) => n += k,
-            Err(e) => return Err(io_err(path, e)),
-        }
-    }
+    // Symphonia's probe looks for a format marker anywhere in the first MiB, so every RIFF/WAVE
+    // header there is checked, not only one at offset 0 (fuzzing found "\0RIFF…").
+    const PROBE: usize = (1 << 20) + 4096;
+    let mut head = Vec::new();
+    file.take(PROBE as u64)
+        .read_to_end(&mut head)
+        .map_err(|e| io_err(path, e))?;
     file.seek(SeekFrom::Start(0)).map_err(|e| io_err(path, e))?;
-    let head = &head[..n];
-    if head.len() < 12 || &head[..4] != b"RIFF" || &head[8..12] != b"WAVE" {
-        return Ok(());
+    let starts: Vec<usize> = head
+        .windows(12)
+        .enumerate()
+        .filter(|(_, w)| &w[..4] == b"RIFF" && &w[8..12] == b"WAVE")
+        .map(|(i, _)| i)
+        .collect();
+    for start in starts {
+        check_riff_chunks(&head[start..], path)?;
     }
+    Ok(())
+}
+
+/// The chunk walk of [`check_wav_header`] from one `RIFF….WAVE` header.
+fn check_riff_chunks(head: &[u8], path: &Path) -> Result<()> {
     let mut at = 12;
     while at + 8 <= head.len() {
         let id = &head[at..at + 4];
@@ -100,6 +108,31 @@ fn check_wav_header(mut file: &std::fs::File, path: &Path) -> Result<()> {
                         "WAV header: {rate} Hz, {channels} channel(s) — not a usable recording"
                     ),
                 ));
+            }
+            if channels > 32 {
+                return Err(parse_err(
+                    path,
+                    format!("WAV header: {channels} channels (at most 32 are supported)"),
+                ));
+            }
+            // WAVE_FORMAT_EXTENSIBLE: Symphonia pads a channel mask with too few bits above its
+            // highest one, which overflows (a panic in debug builds, found by fuzzing) when the
+            // padded mask needs more than 32 bits.
+            let format = u16::from_le_bytes([f[0], f[1]]);
+            if format == 0xFFFE && f.len() >= 24 {
+                let mask = u32::from_le_bytes([f[20], f[21], f[22], f[23]]);
+                let missing = i64::from(channels) - i64::from(mask.count_ones());
+                let bits = 32 - i64::from(mask.leading_zeros());
+                if missing > 0 && bits + missing > 32 {
+                    return Err(parse_err(
+                        path,
+                        format!(
+                            "WAV header: channel mask {mask:#010x} names {} of {channels} channels \
+                             and cannot be completed",
+                            mask.count_ones()
+                        ),
+                    ));
+                }
             }
             return Ok(());
         }

@@ -293,3 +293,28 @@ fn issue_15_a_wav_header_with_0_hz_or_0_channels_is_an_error_not_a_panic() {
         assert!(e.contains("WAV header"), "{e}");
     }
 }
+
+/// Fuzzing (`fuzz/`, target `audio`) found a WAVE_FORMAT_EXTENSIBLE header with 65 channels and
+/// a 2-channel mask that overflows a shift inside Symphonia (a panic in debug builds, a wrong
+/// mask in release). The crasher is kept as found (its first byte picked the extension).
+#[test]
+fn fuzz_audio_crash_83f2630f_a_channel_mask_that_cannot_be_completed_is_an_error() {
+    let found = include_bytes!("fuzz/audio-crash-83f2630f.bin");
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["wav", "ogg"] {
+        let p = dir.path().join(format!("crash.{ext}"));
+        std::fs::write(&p, &found[1..]).unwrap();
+        let e = resound_io::load_audio(&p).unwrap_err().to_string();
+        assert!(e.contains("WAV header"), "{e}");
+    }
+    // The same shape with the mask's top bit set and one channel missing.
+    let mut wav = found[1..].to_vec();
+    // The crasher is "\0RIFF…": the format tag sits at 1 + 20.
+    let fmt = 21;
+    wav[fmt + 2..fmt + 4].copy_from_slice(&2u16.to_le_bytes());
+    wav[fmt + 20..fmt + 24].copy_from_slice(&0x8000_0000u32.to_le_bytes());
+    let p = dir.path().join("top.wav");
+    std::fs::write(&p, &wav).unwrap();
+    let e = resound_io::load_audio(&p).unwrap_err().to_string();
+    assert!(e.contains("channel mask"), "{e}");
+}
