@@ -1589,4 +1589,71 @@ mod regression {
             d,
         ));
     }
+
+    #[test]
+    fn issue_15_grains_refuse_recordings_whose_quadratic_cost_would_run_away() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let x: Vec<f32> = (0..8_000u64 * 121)
+            .map(|i| ((i * 7919 % 1000) as f32 / 1000.0 - 0.5) * 0.1)
+            .collect();
+        resound::io::write_wav(
+            &d.join("long.wav"),
+            &x,
+            8_000,
+            resound::io::WavFormat::Float32,
+        )
+        .unwrap();
+        fails_with(
+            &resound(
+                &["grains", "analyze", "rolling:long.wav", "-o", "o.grains"],
+                d,
+            ),
+            "at most 120 s",
+        );
+        assert!(!d.join("o.grains").exists());
+    }
+
+    #[test]
+    fn issue_15_scrape_irs_are_bounded_and_scenes_have_a_body_limit() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::write(d.join("t.csv"), "0,0\n1,0.2\n").unwrap();
+        let stats = serde_json::json!({
+            "material": "m", "modes": 1, "mean": [7.0, -20.0, 60.0],
+            "covariance": [0.01, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0], "sources": 2
+        });
+        std::fs::write(d.join("m.stats.json"), stats.to_string()).unwrap();
+        fails_with(
+            &resound(
+                &[
+                    "scrape",
+                    "--stats",
+                    "m.stats.json",
+                    "--surface",
+                    "fractal",
+                    "--trajectory",
+                    "t.csv",
+                    "--irs",
+                    "1000000000",
+                    "-o",
+                    "s.wav",
+                ],
+                d,
+            ),
+            "1–256",
+        );
+        let mut scene = String::from("duration = 0.1\nsample_rate = 48000\n");
+        for i in 0..4097 {
+            scene.push_str(&format!(
+                "[[body]]\nname = \"b{i}\"\nshape = {{ sphere = 0.01 }}\nmaterial = \"preset:steel\"\ndensity = 7850\nposition = [0, {}, 0]\n",
+                0.05 * f64::from(i)
+            ));
+        }
+        std::fs::write(d.join("many.toml"), scene).unwrap();
+        fails_with(
+            &resound(&["scene", "many.toml", "-o", "m.wav", "--no-cache"], d),
+            "at most 4096",
+        );
+    }
 }

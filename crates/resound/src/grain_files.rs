@@ -47,12 +47,19 @@ fn contact_of(rule: KindRule, name: &str, x: &[f32], fs: f64) -> Contact {
 /// The shortest recording grains are cut from, s (a few grain lengths).
 pub const MIN_RECORDING_S: f64 = 0.02;
 
+/// The longest recording grains are cut from, s, and the longest all of them together. Every
+/// grain's correlation pattern is taken over every recording of its kind (Picard §3.3), so the
+/// cost grows with the square of the length: 2 minutes take about half a minute here.
+pub const MAX_RECORDING_S: f64 = 120.0;
+/// See [`MAX_RECORDING_S`].
+pub const MAX_TOTAL_S: f64 = 300.0;
+
 /// Loads recordings (each spec a path, optionally prefixed `kind:`) as mono f32 at one rate
 /// (`rate`, else the first file's): the recordings, the rate, and the bytes on disk.
 ///
 /// # Errors
-/// Unreadable files; failed resampling; recordings shorter than [`MIN_RECORDING_S`] or
-/// silent.
+/// Unreadable files; failed resampling; recordings shorter than [`MIN_RECORDING_S`], longer
+/// than [`MAX_RECORDING_S`] (or [`MAX_TOTAL_S`] together), or silent.
 
 pub fn load_recordings(
     specs: &[String],
@@ -62,6 +69,7 @@ pub fn load_recordings(
     let mut out = Vec::new();
     let mut fs: Option<u32> = rate;
     let mut bytes = 0usize;
+    let mut total_s = 0.0;
     for spec in specs {
         let (k, path) = match spec.split_once(':') {
             Some((p, rest)) if !Path::new(spec).exists() && parse_kind(p).is_some() => {
@@ -90,6 +98,22 @@ pub fn load_recordings(
             return Err(
                 invalid("silent (every sample is the same): nothing to cut into grains").at(path),
             );
+        }
+        let seconds = samples.len() as f64 / f64::from(target);
+        if seconds > MAX_RECORDING_S {
+            return Err(invalid(format!(
+                "{seconds:.0} s long: grains take recordings of at most {MAX_RECORDING_S:.0} s \
+                 (each grain is matched over the whole recording, so the cost grows with the \
+                 square of the length); cut it into parts"
+            ))
+            .at(path));
+        }
+        total_s += seconds;
+        if total_s > MAX_TOTAL_S {
+            return Err(invalid(format!(
+                "the recordings add up to more than {MAX_TOTAL_S:.0} s; analyse them in groups"
+            ))
+            .at(path));
         }
         let name = path.file_stem().map_or(String::from("recording"), |s| {
             s.to_string_lossy().into_owned()
