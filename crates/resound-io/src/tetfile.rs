@@ -477,7 +477,7 @@ pub(crate) fn load_medit(path: &Path) -> Result<LoadedMesh> {
                     parse_err(path, format!("MEDIT: unsupported section '{other}'"))
                 })?;
                 let n: usize = c.num().ok_or_else(trunc)?;
-                for _ in 0..n * per {
+                for _ in 0..n.checked_mul(per).ok_or_else(trunc)? {
                     c.token().ok_or_else(trunc)?;
                 }
             }

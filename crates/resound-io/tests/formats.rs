@@ -393,3 +393,26 @@ fn model_file_round_trip_and_corruption() {
 }
 #[path = "formats/audio.rs"]
 mod audio;
+
+/// Crashers found by `fuzz/` (`fuzz/run.sh`), kept as found: the first byte picked the format
+/// (index into obj, stl, ply, msh, node, mesh for the `mesh` target).
+mod fuzz_crashers {
+    use std::path::Path;
+
+    fn as_mesh(name: &str, found: &[u8]) -> std::path::PathBuf {
+        let ext = ["obj", "stl", "ply", "msh", "node", "mesh"][usize::from(found[0]) % 6];
+        let dir = std::env::temp_dir().join(format!("resound-crasher-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join(format!("{name}.{ext}"));
+        std::fs::write(&p, &found[1..]).unwrap();
+        p
+    }
+
+    /// A MEDIT section count times its entry size overflowed (a panic in debug builds).
+    #[test]
+    fn fuzz_mesh_crash_8e23f3db_a_huge_medit_section_count_is_an_error() {
+        let p = as_mesh("8e23f3db", include_bytes!("formats/fuzz/mesh-crash-8e23f3db.bin"));
+        let e = resound_io::load_mesh(Path::new(&p), 1.0).unwrap_err().to_string();
+        assert!(e.contains("MEDIT"), "{e}");
+    }
+}
