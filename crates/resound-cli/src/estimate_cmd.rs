@@ -276,6 +276,16 @@ pub fn run_materials(c: MaterialsCmd) -> Result<()> {
     match c {
         MaterialsCmd::List(a) => {
             let lib = read_library(a.library.as_deref())?;
+            if lib.is_none() {
+                eprintln!(
+                    "note: no material library at {} yet: the built-ins only (estimate --name or \
+                     materials import creates it)",
+                    a.library
+                        .clone()
+                        .or_else(resound::io::library::default_library_path)
+                        .map_or_else(|| "the default path".into(), |p| p.display().to_string())
+                );
+            }
             for (m, origin) in list_materials(lib.as_ref())? {
                 println!(
                     "{:<16} alpha {:.4e}  beta {:.4e}  gamma {:.4e}  sigma {:.4e}{}",

@@ -411,8 +411,13 @@ mod fuzz_crashers {
     /// A MEDIT section count times its entry size overflowed (a panic in debug builds).
     #[test]
     fn fuzz_mesh_crash_8e23f3db_a_huge_medit_section_count_is_an_error() {
-        let p = as_mesh("8e23f3db", include_bytes!("formats/fuzz/mesh-crash-8e23f3db.bin"));
-        let e = resound_io::load_mesh(Path::new(&p), 1.0).unwrap_err().to_string();
+        let p = as_mesh(
+            "8e23f3db",
+            include_bytes!("formats/fuzz/mesh-crash-8e23f3db.bin"),
+        );
+        let e = resound_io::load_mesh(Path::new(&p), 1.0)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("MEDIT"), "{e}");
     }
 }
