@@ -1,7 +1,7 @@
 //! `resound mesh …`.
 
 use crate::util::parse_list;
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Subcommand};
 use resound::io::save_surface;
 use resound::mesh::{check_mesh, make_primitive, MeshReport, PrimitiveKind};
@@ -62,8 +62,7 @@ pub fn run(c: MeshCmd) -> Result<()> {
     match c {
         MeshCmd::Primitive(a) => {
             let m = make_primitive(a.kind, &parse_list(&a.size)?, a.segments)?;
-            save_surface(&a.output, &m)
-                .with_context(|| format!("writing {}", a.output.display()))?;
+            save_surface(&a.output, &m)?;
             eprintln!(
                 "wrote {} ({} vertices, {} triangles, volume {:.4e} m^3)",
                 a.output.display(),

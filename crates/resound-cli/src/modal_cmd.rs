@@ -164,7 +164,7 @@ pub fn run(a: ModalArgs) -> Result<()> {
         }
     }
     if let Some(out) = &a.output {
-        model_file::save(out, model).with_context(|| format!("writing {}", out.display()))?;
+        model_file::save(out, model)?;
     }
     let hit = hit.map(|h| model.hit(h)).transpose()?;
     if a.json {

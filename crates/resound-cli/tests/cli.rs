@@ -1207,12 +1207,14 @@ mod regression {
             d,
         ));
         assert!(!d.join("typo.sqlite").exists());
+        // Without a library a name still reaches the built-ins; an unknown one is an error.
+        ok(&resound(
+            &["materials", "show", "wood", "--library", "typo.sqlite"],
+            d,
+        ));
         fails_with(
-            &resound(
-                &["materials", "show", "wood", "--library", "typo.sqlite"],
-                d,
-            ),
-            "no material library",
+            &resound(&["materials", "show", "oak", "--library", "typo.sqlite"], d),
+            "no material",
         );
         assert!(!d.join("typo.sqlite").exists());
         std::fs::write(d.join("notes.txt"), "not a database").unwrap();

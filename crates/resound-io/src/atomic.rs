@@ -35,7 +35,19 @@ pub fn write_atomic(
         // The mode given to open(2), which the kernel masks with the umask.
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
-    let tmp = builder.tempfile_in(dir).map_err(|e| io_err(path, e))?;
+    if !dir.is_dir() {
+        return Err(io_err(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                format!("the directory {} does not exist", dir.display()),
+            ),
+        ));
+    }
+    // tempfile names its own (temporary) path in its errors; the user's path is the one to name.
+    let tmp = builder
+        .tempfile_in(dir)
+        .map_err(|e| io_err(path, std::io::Error::new(e.kind(), e.kind().to_string())))?;
     {
         let mut w = std::io::BufWriter::new(tmp.as_file());
         f(&mut w).map_err(|e| io_err(path, e))?;

@@ -429,7 +429,11 @@ mod fuzz_crashers {
 fn fuzz_material_crash_4f6222d9_a_material_file_round_trips_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("m.json");
-    std::fs::write(&p, include_bytes!("formats/fuzz/material-crash-4f6222d9.json")).unwrap();
+    std::fs::write(
+        &p,
+        include_bytes!("formats/fuzz/material-crash-4f6222d9.json"),
+    )
+    .unwrap();
     let m = resound_io::library::read_material(&p).unwrap();
     let q = dir.path().join("again.json");
     resound_io::library::write_material(&q, &m).unwrap();
