@@ -48,7 +48,7 @@ fn contact_of(rule: KindRule, name: &str, x: &[f32], fs: f64) -> Contact {
 pub const MIN_RECORDING_S: f64 = 0.02;
 
 /// The longest recording grains are cut from, s, and the longest all of them together. Every
-/// grain's correlation pattern is taken over every recording of its kind (Picard §3.3), so the
+/// grain's correlation pattern is taken over every recording of its kind (Picard 2009), so the
 /// cost grows with the square of the length: 2 minutes take about half a minute here.
 pub const MAX_RECORDING_S: f64 = 120.0;
 /// See [`MAX_RECORDING_S`].
@@ -60,7 +60,6 @@ pub const MAX_TOTAL_S: f64 = 300.0;
 /// # Errors
 /// Unreadable files; failed resampling; recordings shorter than [`MIN_RECORDING_S`], longer
 /// than [`MAX_RECORDING_S`] (or [`MAX_TOTAL_S`] together), or silent.
-
 pub fn load_recordings(
     specs: &[String],
     rule: KindRule,
