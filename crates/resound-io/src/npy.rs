@@ -55,14 +55,16 @@ pub fn parse_npy_f64(bytes: &[u8]) -> std::result::Result<Vec<f64>, String> {
         return Err(format!("expected a 1-D array, shape is {dims:?}"));
     }
     let data = &bytes[start + header_len..];
-    if data.len() < dims[0] * width {
+    let want = dims[0]
+        .checked_mul(width)
+        .ok_or_else(|| format!("the .npy shape ({},) is too large", dims[0]))?;
+    if data.len() < want {
         return Err(format!(
-            "truncated .npy data: {} of {} bytes",
-            data.len(),
-            dims[0] * width
+            "truncated .npy data: {} of {want} bytes",
+            data.len()
         ));
     }
-    let out: Vec<f64> = data[..dims[0] * width]
+    let out: Vec<f64> = data[..want]
         .chunks_exact(width)
         .map(|c| {
             if width == 8 {

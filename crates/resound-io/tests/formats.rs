@@ -408,6 +408,15 @@ mod fuzz_crashers {
         p
     }
 
+    /// A `.npy` shape times the element width overflowed (a panic in debug builds).
+    #[test]
+    fn fuzz_npy_crash_40efe898_a_huge_npy_shape_is_an_error() {
+        let e =
+            resound_io::npy::parse_npy_f64(include_bytes!("formats/fuzz/npy-crash-40efe898.npy"))
+                .unwrap_err();
+        assert!(e.contains("too large") || e.contains("shape"), "{e}");
+    }
+
     /// A MEDIT section count times its entry size overflowed (a panic in debug builds).
     #[test]
     fn fuzz_mesh_crash_8e23f3db_a_huge_medit_section_count_is_an_error() {
