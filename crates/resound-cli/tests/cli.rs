@@ -1658,4 +1658,112 @@ mod regression {
             "at most 4096",
         );
     }
+
+    #[test]
+    fn issue_15_papercuts_get_clear_messages() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        bar_model(d, "20");
+        // A negative coordinate is a value, not a flag (no "use '-- -1'" tip).
+        let out = ok(&resound(
+            &["model", "bar.rmodal", "--hit", "-0.04,0,0.005"],
+            d,
+        ));
+        assert!(out.contains("gain"), "{out}");
+        // A missing output directory: said once, naming the user's path, not a temporary one.
+        let out = resound(
+            &[
+                "mesh",
+                "primitive",
+                "bar",
+                "--size",
+                "0.1,0.02,0.01",
+                "-o",
+                "nodir/x.obj",
+            ],
+            d,
+        );
+        fails_with(&out, "the directory nodir does not exist");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !err.contains(".resound-tmp") && err.matches("nodir/x.obj").count() == 1,
+            "{err}"
+        );
+        // Mesh readers name what is wrong.
+        std::fs::write(d.join("badf.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").unwrap();
+        fails_with(
+            &resound(&["mesh", "check", "badf.obj"], d),
+            "line 4: face corner \"7\"",
+        );
+        std::fs::write(
+            d.join("far.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1e30\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n",
+        )
+        .unwrap();
+        fails_with(&resound(&["mesh", "check", "far.obj"], d), "vertex 4");
+        ok(&resound(
+            &[
+                "mesh",
+                "primitive",
+                "bar",
+                "--size",
+                "0.1,0.02,0.01",
+                "-o",
+                "b.stl",
+            ],
+            d,
+        ));
+        let stl = std::fs::read(d.join("b.stl")).unwrap();
+        std::fs::write(d.join("cut.stl"), &stl[..300]).unwrap();
+        fails_with(
+            &resound(&["mesh", "check", "cut.stl"], d),
+            "truncated: the header promises 12 facets",
+        );
+        std::fs::write(
+            d.join("few.ply"),
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 2 1\n",
+        )
+        .unwrap();
+        fails_with(
+            &resound(&["mesh", "check", "few.ply"], d),
+            "header's counts (vertex 3, face 1)",
+        );
+        // TOML errors keep toml's lines and caret.
+        std::fs::write(
+            d.join("bad.toml"),
+            "duration = \"x\"\nsample_rate = 48000\n",
+        )
+        .unwrap();
+        let out = resound(&["scene", "bad.toml", "-o", "x.wav"], d);
+        fails_with(&out, "line 1, column 12");
+        assert!(String::from_utf8_lossy(&out.stderr)
+            .lines()
+            .any(|l| l.contains("^^^")));
+        // A DC-only recording is "constant", not "clipped".
+        resound::io::write_wav(
+            &d.join("dc.wav"),
+            &vec![0.2f32; 4800],
+            48_000,
+            resound::io::WavFormat::Float32,
+        )
+        .unwrap();
+        let out = resound(&["analyze", "dc.wav"], d);
+        fails_with(&out, "constant");
+        assert!(!String::from_utf8_lossy(&out.stderr).contains("clipped"));
+        // `scene --help` shows the format instead of pointing at itself.
+        let help = ok(&resound(&["scene", "--help"], d));
+        assert!(
+            help.contains("[[body]]") && !help.contains("see `resound scene --help`"),
+            "{help}"
+        );
+        // Rescaling across presets: the ν mismatch says how to proceed, and --keep-nu does it.
+        fails_with(
+            &resound(&["model", "bar.rmodal", "-m", "steel"], d),
+            "--keep-nu",
+        );
+        ok(&resound(
+            &["model", "bar.rmodal", "-m", "steel", "--keep-nu"],
+            d,
+        ));
+    }
 }
