@@ -84,6 +84,58 @@ fn check_wav_header(mut file: &std::fs::File, path: &Path) -> Result<()> {
     for start in starts {
         check_riff_chunks(&head[start..], path)?;
     }
+    let flacs: Vec<usize> = head
+        .windows(4)
+        .enumerate()
+        .filter(|(_, w)| *w == b"fLaC")
+        .map(|(i, _)| i)
+        .collect();
+    for start in flacs {
+        check_flac_pictures(&head[start + 4..], path)?;
+    }
+    Ok(())
+}
+
+/// FLAC metadata blocks after a `fLaC` marker: a picture block's length fields must fit in the
+/// block. Symphonia allocates each of them before reading (fuzzing found a 4 GiB allocation
+/// from a 900-byte file).
+fn check_flac_pictures(mut blocks: &[u8], path: &Path) -> Result<()> {
+    let be = |b: &[u8], at: usize| -> Option<usize> {
+        b.get(at..at + 4)
+            .map(|s| u32::from_be_bytes([s[0], s[1], s[2], s[3]]) as usize)
+    };
+    while blocks.len() >= 4 {
+        let (flags, len) = (
+            blocks[0],
+            usize::from(blocks[1]) << 16 | usize::from(blocks[2]) << 8 | usize::from(blocks[3]),
+        );
+        let body = &blocks[4..];
+        let block = &body[..len.min(body.len())];
+        if flags & 0x7f == 6 {
+            // type, media type length, media type, description length, description, 4 × u32,
+            // data length, data.
+            let fits = (|| {
+                let mime = be(block, 4)?;
+                let desc_at = 8usize.checked_add(mime)?;
+                let desc = be(block, desc_at)?;
+                let data_at = desc_at.checked_add(4)?.checked_add(desc)?.checked_add(16)?;
+                let data = be(block, data_at)?;
+                (data_at.checked_add(4)?.checked_add(data)? <= len).then_some(())
+            })();
+            if fits.is_none() {
+                return Err(parse_err(
+                    path,
+                    format!(
+                        "FLAC metadata: a picture block's lengths do not fit in its {len} bytes"
+                    ),
+                ));
+            }
+        }
+        if flags & 0x80 != 0 || len > body.len() {
+            break;
+        }
+        blocks = &body[len..];
+    }
     Ok(())
 }
 

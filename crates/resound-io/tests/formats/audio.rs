@@ -318,3 +318,15 @@ fn fuzz_audio_crash_83f2630f_a_channel_mask_that_cannot_be_completed_is_an_error
     let e = resound_io::load_audio(&p).unwrap_err().to_string();
     assert!(e.contains("channel mask"), "{e}");
 }
+
+/// Fuzzing (`audio`) found a 900-byte file with a FLAC picture block whose media-type length
+/// says 4 GiB: Symphonia allocated it before reading.
+#[test]
+fn fuzz_audio_oom_602fda4f_a_flac_picture_larger_than_its_block_is_an_error() {
+    let found = include_bytes!("fuzz/audio-oom-602fda4f.bin");
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("oom.ogg");
+    std::fs::write(&p, &found[1..]).unwrap();
+    let e = resound_io::load_audio(&p).unwrap_err().to_string();
+    assert!(e.contains("picture block"), "{e}");
+}
