@@ -91,15 +91,56 @@ fn check_wav_header(mut file: &std::fs::File, path: &Path) -> Result<()> {
         .map(|(i, _)| i)
         .collect();
     for start in flacs {
-        check_flac_pictures(&head[start + 4..], path)?;
+        check_flac_metadata(&head[start + 4..], path)?;
+    }
+    // Vorbis comment headers (OGG Vorbis): Symphonia allocates each length it reads, so none
+    // may exceed what the file holds after it.
+    let file_len = file.metadata().map_or(head.len() as u64, |m| m.len()) as usize;
+    let vorbis: Vec<usize> = head
+        .windows(7)
+        .enumerate()
+        .filter(|(_, w)| *w == b"\x03vorbis")
+        .map(|(i, _)| i + 7)
+        .collect();
+    for start in vorbis {
+        let rest = file_len.saturating_sub(start);
+        let le = |at: usize| -> Option<usize> {
+            head.get(start + at..start + at + 4)
+                .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]) as usize)
+        };
+        let fits = (|| {
+            let mut at = 4usize.checked_add(le(0)?)?;
+            if at > rest {
+                return None;
+            }
+            let n = le(at)?;
+            if n > rest / 4 {
+                return None;
+            }
+            at += 4;
+            for _ in 0..n {
+                let Some(l) = le(at) else { return Some(()) }; // beyond what was read: trust it
+                at = at.checked_add(4)?.checked_add(l)?;
+                if at > rest {
+                    return None;
+                }
+            }
+            Some(())
+        })();
+        if fits.is_none() {
+            return Err(parse_err(
+                path,
+                "Vorbis comment header: a length runs past the end of the file",
+            ));
+        }
     }
     Ok(())
 }
 
-/// FLAC metadata blocks after a `fLaC` marker: a picture block's length fields must fit in the
-/// block. Symphonia allocates each of them before reading (fuzzing found a 4 GiB allocation
-/// from a 900-byte file).
-fn check_flac_pictures(mut blocks: &[u8], path: &Path) -> Result<()> {
+/// FLAC metadata blocks after a `fLaC` marker: the length fields inside picture and comment
+/// blocks must fit in the block. Symphonia allocates each of them before reading (fuzzing found
+/// 2–4 GiB allocations from files under 1 KiB).
+fn check_flac_metadata(mut blocks: &[u8], path: &Path) -> Result<()> {
     let be = |b: &[u8], at: usize| -> Option<usize> {
         b.get(at..at + 4)
             .map(|s| u32::from_be_bytes([s[0], s[1], s[2], s[3]]) as usize)
@@ -127,6 +168,35 @@ fn check_flac_pictures(mut blocks: &[u8], path: &Path) -> Result<()> {
                     path,
                     format!(
                         "FLAC metadata: a picture block's lengths do not fit in its {len} bytes"
+                    ),
+                ));
+            }
+        }
+        if flags & 0x7f == 4 {
+            // Vorbis comments (little-endian): vendor length, vendor, count, (length, text)*.
+            let le = |at: usize| -> Option<usize> {
+                block
+                    .get(at..at + 4)
+                    .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]) as usize)
+            };
+            let fits = (|| {
+                let mut at = 4usize.checked_add(le(0)?)?;
+                let n = le(at)?;
+                at = at.checked_add(4)?;
+                for _ in 0..n.min(len / 4 + 1) {
+                    let l = le(at)?;
+                    at = at.checked_add(4)?.checked_add(l)?;
+                    if at > len {
+                        return None;
+                    }
+                }
+                (at <= len && n <= len / 4).then_some(())
+            })();
+            if fits.is_none() {
+                return Err(parse_err(
+                    path,
+                    format!(
+                        "FLAC metadata: a comment block's lengths do not fit in its {len} bytes"
                     ),
                 ));
             }

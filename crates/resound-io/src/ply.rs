@@ -173,6 +173,26 @@ pub(crate) fn load_ply(path: &Path) -> Result<SurfaceMesh> {
             ),
         )
     };
+    // Every element takes at least one byte (one property): a count beyond the body is a lie
+    // that would otherwise loop (fuzzing found `element face 745884821769` with no properties).
+    let body = data.len().saturating_sub(r.pos);
+    for el in &elements {
+        if el.count > 0 && el.props.is_empty() {
+            return Err(parse_err(
+                path,
+                format!("PLY: element {} has no properties", el.name),
+            ));
+        }
+        if el.count > body {
+            return Err(parse_err(
+                path,
+                format!(
+                    "PLY: the header declares {} {} elements but the body has {body} bytes",
+                    el.count, el.name
+                ),
+            ));
+        }
+    }
     let mut m = SurfaceMesh::default();
     for el in &elements {
         for _ in 0..el.count {

@@ -417,6 +417,19 @@ mod fuzz_crashers {
         assert!(e.contains("too large") || e.contains("shape"), "{e}");
     }
 
+    /// A PLY element with no properties and a count of 7e11 looped (a hang).
+    #[test]
+    fn fuzz_mesh_timeout_57bfed9f_a_ply_count_beyond_the_body_is_an_error() {
+        let p = as_mesh(
+            "57bfed9f",
+            include_bytes!("formats/fuzz/mesh-timeout-57bfed9f.bin"),
+        );
+        let e = resound_io::load_mesh(Path::new(&p), 1.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("PLY"), "{e}");
+    }
+
     /// A MEDIT section count times its entry size overflowed (a panic in debug builds).
     #[test]
     fn fuzz_mesh_crash_8e23f3db_a_huge_medit_section_count_is_an_error() {

@@ -330,3 +330,32 @@ fn fuzz_audio_oom_602fda4f_a_flac_picture_larger_than_its_block_is_an_error() {
     let e = resound_io::load_audio(&p).unwrap_err().to_string();
     assert!(e.contains("picture block"), "{e}");
 }
+
+/// The same in a FLAC Vorbis-comment block (a 2 GiB comment length).
+#[test]
+fn fuzz_audio_oom_fc59051f_a_flac_comment_larger_than_its_block_is_an_error() {
+    let found = include_bytes!("fuzz/audio-oom-fc59051f.bin");
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("oom.flac");
+    std::fs::write(&p, &found[1..]).unwrap();
+    let e = resound_io::load_audio(&p).unwrap_err().to_string();
+    assert!(e.contains("comment block"), "{e}");
+}
+
+/// The same guard for OGG Vorbis comment headers: a length that runs past the end of the file
+/// is refused before Symphonia allocates it.
+#[test]
+fn a_vorbis_comment_length_past_the_end_of_the_file_is_an_error() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../assets/recordings/default_dig_choppy.1.ogg");
+    let mut ogg = std::fs::read(&path).unwrap();
+    let at = ogg.windows(7).position(|w| w == b"\x03vorbis").unwrap() + 7;
+    ogg[at..at + 4].copy_from_slice(&0x7fff_ffffu32.to_le_bytes());
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("lie.ogg");
+    std::fs::write(&p, &ogg).unwrap();
+    let e = resound_io::load_audio(&p).unwrap_err().to_string();
+    assert!(e.contains("Vorbis comment"), "{e}");
+    // The untouched file still decodes.
+    assert!(resound_io::load_audio(&path).is_ok());
+}
