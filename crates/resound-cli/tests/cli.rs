@@ -7,10 +7,14 @@ use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
 
+/// Runs the binary in `dir` with its own default library and model cache there (tests never
+/// touch the user's).
 fn resound(args: &[&str], dir: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_resound"))
         .args(args)
         .current_dir(dir)
+        .env("RESOUND_LIBRARY", dir.join(".test-library.sqlite"))
+        .env("XDG_CACHE_HOME", dir.join(".test-cache"))
         .output()
         .expect("run resound")
 }
