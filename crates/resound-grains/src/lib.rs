@@ -206,7 +206,7 @@ impl Dictionary {
             if g.recording as usize >= self.recordings.len() {
                 return bad(format!("grain {i} names recording {}", g.recording));
             }
-            if (g.fade_in + g.fade_out) as usize > g.samples.len() {
+            if g.fade_in as usize + g.fade_out as usize > g.samples.len() {
                 return bad(format!("grain {i}: tapers longer than the grain"));
             }
         }

@@ -430,6 +430,22 @@ mod fuzz_crashers {
         assert!(e.contains("PLY"), "{e}");
     }
 
+    /// A grain whose two taper lengths overflow a u32 when added passed validation in release
+    /// builds (found with the checksum repaired, as the target does).
+    #[test]
+    fn fuzz_grains_crash_3bd6e49a_tapers_that_overflow_are_invalid() {
+        let found = include_bytes!("formats/fuzz/grains-crash-3bd6e49a.bin");
+        let mut data = found.to_vec();
+        let n = data.len() - 8;
+        let mut h = resound_io::model_file::Fnv1a::new();
+        h.write(&data[..n]);
+        data[n..].copy_from_slice(&h.finish().to_le_bytes());
+        let e = resound_io::grains_file::decode(&data, Path::new("x.grains"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("grain"), "{e}");
+    }
+
     /// A MEDIT section count times its entry size overflowed (a panic in debug builds).
     #[test]
     fn fuzz_mesh_crash_8e23f3db_a_huge_medit_section_count_is_an_error() {
