@@ -3,21 +3,11 @@
 use libfuzzer_sys::fuzz_target;
 use std::path::Path;
 
-/// The input with its trailing FNV-1a checksum recomputed, so mutations get past the check
-/// and reach the decoder proper.
-fn with_checksum(data: &[u8]) -> Vec<u8> {
-    let mut v = data.to_vec();
-    if v.len() >= 20 {
-        let n = v.len() - 8;
-        let mut h = resound_io::model_file::Fnv1a::new();
-        h.write(&v[..n]);
-        v[n..].copy_from_slice(&h.finish().to_le_bytes());
-    }
-    v
-}
+#[path = "common.rs"]
+mod common;
 
 fuzz_target!(|data: &[u8]| {
-    let repaired = with_checksum(data);
+    let repaired = common::with_checksum(data);
     for data in [data, repaired.as_slice()] {
         check(data);
     }

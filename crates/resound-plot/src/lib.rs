@@ -317,39 +317,62 @@ fn draw_spectrogram_of(
     Ok(())
 }
 
-fn draw_features(
-    area: &Area<'_>,
-    res: &Analysis,
-) -> std::result::Result<(), Box<dyn std::error::Error>> {
-    let f_max = res.modes.iter().map(|m| m.freq_hz).fold(100.0, f64::max) * 1.3;
-    let f_min = res
-        .modes
-        .iter()
-        .map(|m| m.freq_hz)
-        .fold(f64::INFINITY, f64::min)
-        .min(f_max / 10.0)
-        * 0.7;
-    let d_max = res
-        .modes
-        .iter()
-        .map(|m| m.damping_per_s)
-        .fold(1.0, f64::max)
-        * 2.0;
-    let d_min = res
-        .modes
-        .iter()
-        .map(|m| m.damping_per_s)
-        .fold(f64::INFINITY, f64::min)
-        .min(d_max / 100.0)
-        * 0.5;
+/// Log–log axes of frequency and damping spanning `modes` (from a decade boundary).
+struct FdRange {
+    f_min: f64,
+    f_max: f64,
+    d_min: f64,
+    d_max: f64,
+}
+
+impl FdRange {
+    fn of<'m>(modes: impl Iterator<Item = &'m DampedMode> + Clone) -> Self {
+        let f_max = modes.clone().map(|m| m.freq_hz).fold(100.0, f64::max) * 1.3;
+        let f_min = modes
+            .clone()
+            .map(|m| m.freq_hz)
+            .fold(f64::INFINITY, f64::min)
+            .min(f_max / 10.0)
+            * 0.7;
+        let d_max = modes.clone().map(|m| m.damping_per_s).fold(1.0, f64::max) * 2.0;
+        let d_min = modes
+            .map(|m| m.damping_per_s)
+            .fold(f64::INFINITY, f64::min)
+            .min(d_max / 100.0)
+            * 0.5;
+        Self {
+            f_min: decade_below(f_min),
+            f_max,
+            d_min: decade_below(d_min),
+            d_max,
+        }
+    }
+}
+
+type FdChart<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    plotters::coord::cartesian::Cartesian2d<
+        plotters::coord::combinators::LogCoord<f64>,
+        plotters::coord::combinators::LogCoord<f64>,
+    >,
+>;
+
+/// The (f, d) chart with its labelled log axes, `caption` on top.
+fn fd_chart<'a, 'b>(
+    area: &'a Area<'b>,
+    caption: &str,
+    caption_size: u32,
+    r: &FdRange,
+) -> std::result::Result<FdChart<'a, 'b>, Box<dyn std::error::Error>> {
     let mut chart = ChartBuilder::on(area)
-        .caption("features (f, d); size = level", ("sans-serif", 18))
+        .caption(caption, ("sans-serif", caption_size))
         .margin(10)
         .x_label_area_size(40)
         .y_label_area_size(60)
         .build_cartesian_2d(
-            (decade_below(f_min)..f_max).log_scale(),
-            (decade_below(d_min)..d_max).log_scale(),
+            (r.f_min..r.f_max).log_scale(),
+            (r.d_min..r.d_max).log_scale(),
         )?;
     chart
         .configure_mesh()
@@ -362,6 +385,15 @@ fn draw_features(
         .x_desc("frequency (Hz)")
         .y_desc("damping (1/s)")
         .draw()?;
+    Ok(chart)
+}
+
+fn draw_features(
+    area: &Area<'_>,
+    res: &Analysis,
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    let r = FdRange::of(res.modes.iter());
+    let mut chart = fd_chart(area, "features (f, d); size = level", 18, &r)?;
     let strongest = res.modes.iter().map(|m| m.amplitude).fold(0.0, f64::max);
     chart.draw_series(res.modes.iter().map(|m| {
         let level = 20.0 * (m.amplitude / strongest).log10();
@@ -423,45 +455,15 @@ fn draw_estimate_features(
     area: &Area<'_>,
     p: &EstimatePlot<'_>,
 ) -> std::result::Result<(), Box<dyn std::error::Error>> {
-    let all = || p.reference.iter().chain(p.estimated);
-    let f_max = all().map(|m| m.freq_hz).fold(100.0, f64::max) * 1.3;
-    let f_min = all()
-        .map(|m| m.freq_hz)
-        .fold(f64::INFINITY, f64::min)
-        .min(f_max / 10.0)
-        * 0.7;
-    let d_max = all().map(|m| m.damping_per_s).fold(1.0, f64::max) * 2.0;
-    let d_min = all()
-        .map(|m| m.damping_per_s)
-        .fold(f64::INFINITY, f64::min)
-        .min(d_max / 100.0)
-        * 0.5;
-    let mut chart = ChartBuilder::on(area)
-        .caption(
-            format!(
-                "{}: recorded (red) vs estimated (blue) features; Rayleigh curve α = {:.3} 1/s, β = {:.3e} s",
-                short_title(p.title), p.alpha, p.beta
-            ),
-            ("sans-serif", 17),
-        )
-        .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
-        .build_cartesian_2d(
-            (decade_below(f_min)..f_max).log_scale(),
-            (decade_below(d_min)..d_max).log_scale(),
-        )?;
-    chart
-        .configure_mesh()
-        .x_labels(LOG_LABELS)
-        .y_labels(LOG_LABELS)
-        .x_label_formatter(&|v| log_label(*v))
-        .y_label_formatter(&|v| log_label(*v))
-        .light_line_style(RGBColor(238, 238, 238))
-        .bold_line_style(RGBColor(200, 200, 200))
-        .x_desc("frequency (Hz)")
-        .y_desc("damping (1/s)")
-        .draw()?;
+    let r = FdRange::of(p.reference.iter().chain(p.estimated));
+    let (f_min, f_max, d_min, d_max) = (r.f_min, r.f_max, r.d_min, r.d_max);
+    let caption = format!(
+        "{}: recorded (red) vs estimated (blue) features; Rayleigh curve α = {:.3} 1/s, β = {:.3e} s",
+        short_title(p.title),
+        p.alpha,
+        p.beta
+    );
+    let mut chart = fd_chart(area, &caption, 17, &r)?;
     // d = (α + βλ)/2 and f = √(λ − d²)/2π along λ.
     let curve: Vec<(f64, f64)> = (0..400)
         .filter_map(|i| {

@@ -357,7 +357,8 @@ pub fn fractal_profile(len: usize, beta: f64, seed: u64) -> Result<Vec<f64>, Syn
 mod tests {
     use super::*;
 
-    fn centroid(x: &[f32], fs: f64) -> f64 {
+    /// Power per FFT bin of `x` (zero-padded to a power of two) and the bin width, Hz.
+    fn power_spectrum(x: &[f32], fs: f64) -> (Vec<f64>, f64) {
         let mut planner = RealFftPlanner::<f64>::new();
         let n = x.len().next_power_of_two();
         let fft = planner.plan_fft_forward(n);
@@ -365,32 +366,25 @@ mod tests {
         buf.resize(n, 0.0);
         let mut spec = fft.make_output_vec();
         let _ = fft.process(&mut buf, &mut spec);
-        let (mut num, mut den) = (0.0, 0.0);
-        for (k, c) in spec.iter().enumerate() {
-            num += c.norm_sqr() * k as f64;
-            den += c.norm_sqr();
-        }
-        num / den * fs / n as f64
+        (spec.iter().map(|c| c.norm_sqr()).collect(), fs / n as f64)
     }
 
-    /// Share of `x`'s energy below `hz` (FFT bins).
+    fn centroid(x: &[f32], fs: f64) -> f64 {
+        let (p, bin) = power_spectrum(x, fs);
+        let num: f64 = p.iter().enumerate().map(|(k, v)| v * k as f64).sum();
+        num / p.iter().sum::<f64>() * bin
+    }
+
+    /// Share of `x`'s energy below `hz`.
     fn share_below(x: &[f32], fs: f64, hz: f64) -> f64 {
-        let mut planner = RealFftPlanner::<f64>::new();
-        let n = x.len().next_power_of_two();
-        let fft = planner.plan_fft_forward(n);
-        let mut buf: Vec<f64> = x.iter().map(|&v| f64::from(v)).collect();
-        buf.resize(n, 0.0);
-        let mut spec = fft.make_output_vec();
-        let _ = fft.process(&mut buf, &mut spec);
-        let bin = fs / n as f64;
-        let total: f64 = spec.iter().map(|c| c.norm_sqr()).sum();
-        let low: f64 = spec
+        let (p, bin) = power_spectrum(x, fs);
+        let low: f64 = p
             .iter()
             .enumerate()
             .filter(|(k, _)| (*k as f64) * bin < hz)
-            .map(|(_, c)| c.norm_sqr())
+            .map(|(_, v)| v)
             .sum();
-        low / total
+        low / p.iter().sum::<f64>()
     }
 
     #[test]
