@@ -359,7 +359,7 @@ impl SoundMaterial {
 /// the reference impact. It is a calibration, like a microphone gain, not physics (σ of an
 /// estimated material is the recording's own): with it the reference impactor (a 5 mm steel
 /// ball at 1 m/s) on a hand-sized object (the 300 × 20 × 10 mm bar of each built-in, struck
-/// a sixth along) peaks at −15 to −12 dBFS, so physical differences in level
+/// 50 mm from its centre) peaks at −15 to −12 dBFS, so physical differences in level
 /// between objects and materials are kept and nothing is inaudible or clipped by default.
 pub const DEFAULT_SIGMA: f64 = 100.0;
 
