@@ -130,6 +130,16 @@ pub struct AnalyzeBenchArgs {
     /// Skip the stage-1-only (Ren 2013 alone) comparison rows.
     #[arg(long)]
     pub no_stage1: bool,
+    /// Cases per SNR of the wide protocol (4): 20 Hz–22 kHz, d 0.1–1000 1/s, doublets, a noisy
+    /// lead-in with a DC offset (0: skip).
+    #[arg(long, default_value_t = 40)]
+    pub wide: usize,
+    /// SNRs of the wide protocol, dB.
+    #[arg(long, default_value = "100,60,40,25")]
+    pub wide_snr_db: String,
+    /// Run only the wide protocol.
+    #[arg(long)]
+    pub wide_only: bool,
 }
 
 /// Arguments of `bench modal`.
@@ -465,17 +475,19 @@ pub fn run(c: BenchCmd) -> Result<()> {
 }
 
 fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
-    use crate::analysis::{mixtures, single_sinusoids};
+    use crate::analysis::{mixtures, single_sinusoids, wide};
     use resound::signal::AnalyzeParams;
-    let snrs = a
-        .snr_db
-        .split(',')
-        .map(|s| {
-            s.trim()
-                .parse::<f64>()
-                .with_context(|| format!("bad SNR '{s}'"))
-        })
-        .collect::<Result<Vec<f64>>>()?;
+    let parse = |list: &str| {
+        list.split(',')
+            .map(|s| {
+                s.trim()
+                    .parse::<f64>()
+                    .with_context(|| format!("bad SNR '{s}'"))
+            })
+            .collect::<Result<Vec<f64>>>()
+    };
+    let snrs = if a.wide_only { Vec::new() } else { parse(&a.snr_db)? };
+    let wide_snrs = if a.wide == 0 { Vec::new() } else { parse(&a.wide_snr_db)? };
     let mut methods = vec![("refined", AnalyzeParams::default())];
     if !a.no_stage1 {
         methods.push((
@@ -488,8 +500,10 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
     }
     #[derive(Serialize)]
     struct Method {
-        single: crate::analysis::SingleReport,
+        #[serde(skip_serializing_if = "Option::is_none")]
+        single: Option<crate::analysis::SingleReport>,
         mixtures: Vec<crate::analysis::MixtureReport>,
+        wide: Vec<crate::analysis::WideReport>,
         seconds_per_audio_second: f64,
     }
     #[derive(Serialize)]
@@ -509,7 +523,7 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
         if !a.json {
             eprintln!("bench analyze [{name}]: {} single sinusoids ...", a.trials);
         }
-        let single = single_sinusoids(a.trials, a.seed, params);
+        let single = (!a.wide_only).then(|| single_sinusoids(a.trials, a.seed, params));
         let mut mix = Vec::new();
         for &snr in &snrs {
             if !a.json {
@@ -520,9 +534,20 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
             }
             mix.push(mixtures(snr, a.mixtures, a.seed + 1, params));
         }
+        let mut wides = Vec::new();
+        for &snr in &wide_snrs {
+            if !a.json {
+                eprintln!(
+                    "bench analyze [{name}]: {} wide-range cases at {snr} dB SNR ...",
+                    a.wide
+                );
+            }
+            wides.push(wide(snr, a.wide, a.seed + 2, params));
+        }
         let secs: f64 =
             mix.iter().map(|m| m.seconds_per_audio_second).sum::<f64>() / mix.len().max(1) as f64;
         if !a.json {
+            if let Some(single) = &single {
             println!(
                 "[{name}] protocol 1 (Ren 2013, {} noise-free single modes, 44.1 kHz, 1 s):",
                 single.trials
@@ -562,10 +587,27 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
                 );
             }
             println!("[{name}] mean analysis time per second of audio (mixtures): {secs:.3} s");
+            }
+            if !wides.is_empty() {
+                println!("[{name}] protocol 4 (wide: 20 Hz-22 kHz, d 0.1-1000 1/s, doublets, noisy lead-in + DC, 48 kHz):");
+                println!(
+                    "  {:>6} {:>6} {:>7} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>9} {:>7} {:>9}",
+                    "SNR_dB", "modes", "recall", "spurious", "d>100", "f<300", "doublet", "f/CRB", "d/CRB", "onset2ms", "failed", "s/s"
+                );
+                for w in &wides {
+                    println!(
+                        "  {:>6.0} {:>6} {:>7.3} {:>9.3} {:>8.3} {:>8.3} {:>8.3} {:>9.2} {:>9.2} {:>9.2} {:>7} {:>9.3}",
+                        w.snr_db, w.reference_modes, w.recall, w.spurious, w.recall_damped, w.recall_low,
+                        w.recall_doublet, w.median_freq_error_over_crb, w.median_damping_error_over_crb,
+                        w.onset_within_2ms, w.failed, w.seconds_per_audio_second
+                    );
+                }
+            }
         }
         let m = Some(Method {
             single,
             mixtures: mix,
+            wide: wides,
             seconds_per_audio_second: secs,
         });
         if *name == "refined" {

@@ -168,9 +168,10 @@ pub struct TakeArgs {
     /// Resample to this rate first (rubato; e.g. 48000 for a 384 kHz file).
     #[arg(long, value_name = "HZ")]
     pub resample_hz: Option<u32>,
-    /// Which strike to use when the file holds several (1 = first).
-    #[arg(long, default_value_t = 1, value_name = "K")]
-    pub strike: usize,
+    /// Which strike to use when the file holds several (1 = first). Default: the loudest clean
+    /// one (not clipped, not cut short by the next); the report says which and why.
+    #[arg(long, value_name = "K")]
+    pub strike: Option<usize>,
 }
 
 impl TakeArgs {
@@ -182,11 +183,12 @@ impl TakeArgs {
         }
     }
 
-    /// The strike, 0-based.
-    pub fn strike_index(&self) -> Result<usize> {
-        if self.strike == 0 {
-            anyhow::bail!("--strike counts from 1");
+    /// The strike, 0-based (`None`: the loudest clean one).
+    pub fn strike_index(&self) -> Result<Option<usize>> {
+        match self.strike {
+            Some(0) => anyhow::bail!("--strike counts from 1"),
+            Some(k) => Ok(Some(k - 1)),
+            None => Ok(None),
         }
-        Ok(self.strike - 1)
     }
 }

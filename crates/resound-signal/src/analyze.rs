@@ -17,10 +17,14 @@ pub struct AnalyzeParams {
     /// Drop modes more than this many dB below the strongest, by level ([`crate::mode_level`]:
     /// RMS amplitude over the first [`crate::LEVEL_WINDOW_S`]).
     pub min_db: f64,
-    /// Zero-phase high-pass cut-off applied first (rooms add rumble below ~100 Hz).
+    /// Zero-phase high-pass cut-off applied first (rooms add rumble below ~100 Hz). Without
+    /// one, [`crate::condition`] chooses one from the rumble it measures (see `auto_highpass`).
     pub highpass_hz: Option<f64>,
-    /// Which strike to analyse when the recording holds several (0 = first).
-    pub strike: usize,
+    /// Let conditioning choose a high-pass when rumble is measured and `highpass_hz` is unset.
+    pub auto_highpass: bool,
+    /// Which strike to analyse when the recording holds several (0 = first); `None`: the
+    /// strongest clean one (not clipped, not cut short by the next).
+    pub strike: Option<usize>,
     /// Analyse at most this much audio after the onset, in seconds.
     pub max_duration_s: f64,
     /// Run the time-domain refinement (stage 2). Without it the result is Ren's stage 1 alone.
@@ -29,6 +33,9 @@ pub struct AnalyzeParams {
     pub rounds: usize,
     /// A mode must carry this much energy relative to the noise variance (Σ s² / σ²) to stay.
     pub min_energy_snr: f64,
+    /// Search the residual with sub-band ESPRIT ([`crate::subspace`]) for modes the spectrogram
+    /// stage cannot see: fast decays, beating doublets, low modes.
+    pub subspace: bool,
 }
 
 impl Default for AnalyzeParams {
@@ -37,11 +44,13 @@ impl Default for AnalyzeParams {
             max_modes: 64,
             min_db: 60.0,
             highpass_hz: None,
-            strike: 0,
+            auto_highpass: true,
+            strike: None,
             max_duration_s: 5.0,
             refine: true,
             rounds: 2,
             min_energy_snr: 40.0,
+            subspace: true,
         }
     }
 }
@@ -55,6 +64,12 @@ pub struct Analysis {
     pub onset_s: f64,
     /// Onsets of all strikes found, seconds.
     pub strikes_s: Vec<f64>,
+    /// Which strike was analysed (0-based).
+    pub strike: usize,
+    /// Why that strike (one line).
+    pub strike_reason: String,
+    /// What conditioning did (DC, high-pass, noise floor).
+    pub conditioning: crate::condition::Conditioning,
     /// Modes sorted by frequency; t = 0 at the onset.
     pub modes: Vec<DampedMode>,
     /// Standard deviation of the residual (robust), full scale = 1.
@@ -122,6 +137,37 @@ pub enum AnalyzeError {
     Param(String),
 }
 
+/// Decays faster than this (under 4.6 ms to −60 dB) are the strike's transient — the contact
+/// click, not a mode of the object: they stay in the residual, out of the modes that drive
+/// estimation.
+pub const TRANSIENT_DAMPING_PER_S: f64 = 1500.0;
+
+/// Moves an onset the envelope scan put early to the first sample that stands 5 σ above the
+/// lead-in's noise, searching from 20 ms before it (never before the previous strike) to 5 ms
+/// after it. A model that starts before the strike has to explain a stretch of silence with a
+/// burst of fast decays; one that starts a few samples late only sees a phase shift. Without a
+/// lead-in (the strike starts the file) the scan's onset stands.
+fn refine_onset(
+    x: &[f64],
+    onset: usize,
+    previous: usize,
+    sample_rate_hz: f64,
+    conditioning: &crate::condition::Conditioning,
+) -> usize {
+    if conditioning.noise_from != "lead-in" || onset == 0 {
+        return onset;
+    }
+    let sigma = 10f64.powf(conditioning.noise_floor_dbfs / 20.0);
+    let from = onset
+        .saturating_sub((0.02 * sample_rate_hz) as usize)
+        .max(previous);
+    let to = (onset + (0.005 * sample_rate_hz) as usize).min(x.len());
+    x[from..to]
+        .iter()
+        .position(|v| v.abs() > 5.0 * sigma)
+        .map_or(onset, |i| from + i)
+}
+
 /// Analyses the strike in `signal` (mono, full scale = 1).
 pub fn analyze(
     signal: &[f64],
@@ -157,24 +203,38 @@ pub fn analyze(
             )));
         }
     }
-    let mut x = signal.to_vec();
-    if let Some(f) = params.highpass_hz {
-        highpass_zero_phase(&mut x, f, sample_rate_hz);
-    }
-    let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    if !(peak > 1e-7) {
-        return Err(AnalyzeError::Silent {
-            peak_dbfs: 20.0 * peak.max(1e-300).log10(),
-        });
-    }
     // A constant signal (a DC offset and nothing else) has no strike; it is not "clipped".
-    let (lo, hi) = x
+    let (lo, hi) = signal
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
             (a.min(v), b.max(v))
         });
     if hi - lo <= 1e-7 {
-        return Err(AnalyzeError::Constant { value: x[0] });
+        return Err(AnalyzeError::Constant { value: signal[0] });
+    }
+    let mut x = signal.to_vec();
+    // The lead-in is located on a copy high-passed at 100 Hz, so rumble cannot pass for a strike.
+    let first_onset = |y: &[f64]| {
+        // Centred first: an offset would make the filter ring at the file's first sample.
+        let mut sorted = y.to_vec();
+        let mid = sorted.len() / 2;
+        let centre = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
+        let mut c: Vec<f64> = y.iter().map(|v| v - centre).collect();
+        highpass_zero_phase(&mut c, 100.0_f64.min(0.2 * sample_rate_hz), sample_rate_hz);
+        scan(&c, sample_rate_hz).onsets.first().copied()
+    };
+    let conditioning = crate::condition::condition(
+        &mut x,
+        sample_rate_hz,
+        params.highpass_hz,
+        params.auto_highpass,
+        first_onset,
+    );
+    let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !(peak > 1e-7) {
+        return Err(AnalyzeError::Silent {
+            peak_dbfs: 20.0 * peak.max(1e-300).log10(),
+        });
     }
     let sc = scan(&x, sample_rate_hz);
     let mut warnings = Vec::new();
@@ -189,25 +249,30 @@ pub fn analyze(
             peak_dbfs: 20.0 * peak.log10(),
         });
     }
+    let (strike, strike_reason) = match params.strike {
+        Some(k) => (k, format!("strike {} as asked", k + 1)),
+        None => strongest_clean(&x, &sc.onsets, sample_rate_hz),
+    };
     if sc.onsets.len() > 1 {
         warnings.push(format!(
-            "the audio holds {} strikes (at {}); analysing strike {}",
+            "the audio holds {} strikes (at {}); analysing {strike_reason}",
             sc.onsets.len(),
             sc.onsets
                 .iter()
                 .map(|&o| format!("{:.3} s", o as f64 / sample_rate_hz))
                 .collect::<Vec<_>>()
                 .join(", "),
-            params.strike + 1
         ));
     }
-    let Some(&onset) = sc.onsets.get(params.strike) else {
+    let Some(&onset) = sc.onsets.get(strike) else {
         return Err(AnalyzeError::NoSuchStrike {
-            requested: params.strike,
+            requested: strike,
             found: sc.onsets.len(),
         });
     };
-    let end = sc.onsets.get(params.strike + 1).copied().unwrap_or(x.len());
+    let previous = if strike > 0 { sc.onsets[strike - 1] } else { 0 };
+    let onset = refine_onset(&x, onset, previous, sample_rate_hz, &conditioning);
+    let end = sc.onsets.get(strike + 1).copied().unwrap_or(x.len());
     let max_len = (params.max_duration_s * sample_rate_hz) as usize;
     let end = end.min(onset + max_len.max(1));
     let seg = &x[onset..end];
@@ -291,6 +356,33 @@ pub fn analyze(
             params,
         );
     }
+    if params.refine && params.subspace && !seeds.is_empty() {
+        let t1 = std::time::Instant::now();
+        let added = subspace_pass(seg, sample_rate_hz, &mut seeds, info.noise_rms, params);
+        extract_s += t1.elapsed().as_secs_f64();
+        if added {
+            let refine = RefineParams {
+                sweeps: 2,
+                ..RefineParams::default()
+            };
+            let (_, i) = refine_modes(seg, sample_rate_hz, &mut seeds, &refine);
+            info.iterations += i.iterations;
+            info.noise_rms = i.noise_rms;
+            prune(
+                &mut seeds,
+                sample_rate_hz,
+                seg.len(),
+                info.noise_rms,
+                params,
+            );
+            if crate::refine::merge_all_duplicates(&mut seeds, seg.len() as f64 / sample_rate_hz) {
+                let (_, i) = refine_modes(seg, sample_rate_hz, &mut seeds, &RefineParams { sweeps: 1, ..RefineParams::default() });
+                info.iterations += i.iterations;
+                info.noise_rms = i.noise_rms;
+                prune(&mut seeds, sample_rate_hz, seg.len(), info.noise_rms, params);
+            }
+        }
+    }
     let mut modes: Vec<DampedMode> = seeds.iter().map(|s| s.mode).collect();
     let level = |m: &DampedMode| crate::mode_level(m, crate::LEVEL_WINDOW_S);
     modes.sort_by(|a, b| level(b).total_cmp(&level(a)));
@@ -304,6 +396,9 @@ pub fn analyze(
             .iter()
             .map(|&o| o as f64 / sample_rate_hz)
             .collect(),
+        strike,
+        strike_reason,
+        conditioning,
         modes,
         noise_rms: info.noise_rms,
         samples: seg.len(),
@@ -331,7 +426,7 @@ fn prune(
         let m = &s.mode;
         // A mode pinned at the damping cap did not converge to a physical decay.
         crate::plausible(m.freq_hz, m.damping_per_s, sample_rate_hz)
-            && m.damping_per_s < 0.99 * crate::MAX_DAMPING_PER_S
+            && m.damping_per_s < TRANSIENT_DAMPING_PER_S
             && m.amplitude > 0.0
             && m.amplitude.is_finite()
     });
@@ -348,4 +443,230 @@ fn prune(
                 / (4.0 * m.damping_per_s);
         level(m) >= min_level && energy >= params.min_energy_snr * var
     });
+}
+
+/// The strike to analyse by default: the loudest (peak over its first 50 ms) among the clean
+/// ones — not clipped and with at least 100 ms before the next strike; the loudest of all when
+/// none is clean. Returns its index and the reason.
+fn strongest_clean(x: &[f64], onsets: &[usize], sample_rate_hz: f64) -> (usize, String) {
+    if onsets.len() <= 1 {
+        return (0, "strike 1 (the only one)".to_string());
+    }
+    let w = (0.05 * sample_rate_hz) as usize;
+    let gap = (0.1 * sample_rate_hz) as usize;
+    let peak_of = |i: usize| {
+        let a = onsets[i];
+        let b = (a + w).min(onsets.get(i + 1).copied().unwrap_or(x.len())).min(x.len());
+        x[a..b].iter().fold(0.0f64, |m, v| m.max(v.abs()))
+    };
+    let global = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let clean = |i: usize| {
+        let long = onsets.get(i + 1).map_or(x.len() - onsets[i], |&n| n - onsets[i]) >= gap;
+        let a = onsets[i];
+        let b = onsets.get(i + 1).copied().unwrap_or(x.len()).min(a + w);
+        let flat = x[a..b]
+            .windows(3)
+            .filter(|s| s.iter().all(|v| v.abs() >= global * (1.0 - 1e-6)))
+            .count();
+        long && flat == 0
+    };
+    let pick = |cands: Vec<usize>| {
+        cands
+            .into_iter()
+            .max_by(|&a, &b| peak_of(a).total_cmp(&peak_of(b)))
+            .unwrap_or(0)
+    };
+    let clean_ones: Vec<usize> = (0..onsets.len()).filter(|&i| clean(i)).collect();
+    if clean_ones.is_empty() {
+        let k = pick((0..onsets.len()).collect());
+        return (
+            k,
+            format!(
+                "strike {} (the loudest; none of the {} is clean: each is clipped or cut short by the next within 100 ms)",
+                k + 1,
+                onsets.len()
+            ),
+        );
+    }
+    let k = pick(clean_ones.clone());
+    (
+        k,
+        format!(
+            "strike {} (the loudest of {} clean strikes, peak {:.1} dBFS; `--strike K` picks another)",
+            k + 1,
+            clean_ones.len(),
+            20.0 * peak_of(k).max(1e-12).log10()
+        ),
+    )
+}
+
+/// Searches the residual of `seeds` with sub-band ESPRIT and adds the poles no seed explains
+/// (with least-squares amplitudes). A seed straddled by two new poles within 1 % (a doublet
+/// it had fitted as one mode) is replaced by them. Returns whether anything changed.
+fn subspace_pass(
+    seg: &[f64],
+    sample_rate_hz: f64,
+    seeds: &mut Vec<Seed>,
+    noise_rms: f64,
+    params: &AnalyzeParams,
+) -> bool {
+    use crate::subspace::{find_poles, SubspaceParams};
+    let mut residual = seg.to_vec();
+    for s in seeds.iter() {
+        add_mode(&s.mode, sample_rate_hz, -1.0, &mut residual);
+    }
+    // The poles of the whole segment: each seed explains at most one (the nearest), so a seed
+    // that had fitted a doublet as one mode leaves the pair's second pole unexplained.
+    let poles = find_poles(
+        seg,
+        sample_rate_hz,
+        noise_rms,
+        &SubspaceParams::default(),
+        (crate::MIN_DAMPING_PER_S, TRANSIENT_DAMPING_PER_S),
+        crate::MIN_FREQ_HZ,
+    );
+    let tol = |p: &crate::subspace::Pole, m: &DampedMode| {
+        0.3 / p.window_s + 0.1 * (p.damping_per_s + m.damping_per_s) / std::f64::consts::PI
+    };
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for (i, p) in poles.iter().enumerate() {
+        for (j, s) in seeds.iter().enumerate() {
+            let e = (p.freq_hz - s.mode.freq_hz).abs();
+            if e < tol(p, &s.mode) {
+                pairs.push((e / tol(p, &s.mode), i, j));
+            }
+        }
+    }
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut pole_used = vec![false; poles.len()];
+    let mut seed_used = vec![false; seeds.len()];
+    for (_, i, j) in pairs {
+        if !pole_used[i] && !seed_used[j] {
+            pole_used[i] = true;
+            seed_used[j] = true;
+        }
+    }
+    let new: Vec<crate::subspace::Pole> = poles
+        .into_iter()
+        .zip(pole_used)
+        .filter(|(_, used)| !used)
+        .map(|(p, _)| p)
+        .collect();
+    if new.is_empty() {
+        return false;
+    }
+    // Straddled seeds: one mode fitted to a doublet.
+    seeds.retain(|s| {
+        let f = s.mode.freq_hz;
+        let below = new.iter().any(|p| p.freq_hz < f && p.freq_hz > f * 0.99);
+        let above = new.iter().any(|p| p.freq_hz > f && p.freq_hz < f * 1.01);
+        if below && above {
+            add_mode(&s.mode, sample_rate_hz, 1.0, &mut residual);
+            false
+        } else {
+            true
+        }
+    });
+    let room = params.max_modes.saturating_sub(seeds.len()).max(new.len().min(8));
+    let mut new = new;
+    new.sort_by(|a, b| b.strength.total_cmp(&a.strength));
+    new.truncate(room);
+    new.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    for m in least_squares_amplitudes(&residual, sample_rate_hz, &new) {
+        if m.amplitude > 0.0 && m.amplitude.is_finite() {
+            let window_len = (new
+                .iter()
+                .find(|p| p.freq_hz == m.freq_hz)
+                .map_or(0.05, |p| p.window_s)
+                * sample_rate_hz) as usize;
+            seeds.push(Seed {
+                mode: m,
+                window_len: (window_len / 2).max(128),
+            });
+        }
+    }
+    true
+}
+
+fn add_mode(mode: &DampedMode, sample_rate_hz: f64, scale: f64, out: &mut [f64]) {
+    let (s, c) = mode.phase_rad.sin_cos();
+    let w = std::f64::consts::TAU * mode.freq_hz / sample_rate_hz;
+    let r = (-mode.damping_per_s / sample_rate_hz).exp();
+    // e^{-dn}(sin(wn + θ)) by a rotating phasor.
+    let (mut re, mut im) = (c, s); // e^{iθ}
+    let (rc, rs) = (r * w.cos(), r * w.sin());
+    let a = scale * mode.amplitude;
+    for v in out.iter_mut() {
+        *v += a * im;
+        let nre = re * rc - im * rs;
+        im = re * rs + im * rc;
+        re = nre;
+        if re.abs() + im.abs() < 1e-18 {
+            break;
+        }
+    }
+}
+
+/// Amplitudes and phases of `poles` on `x` by linear least squares, jointly within groups of
+/// poles whose lines overlap.
+fn least_squares_amplitudes(
+    x: &[f64],
+    sample_rate_hz: f64,
+    poles: &[crate::subspace::Pole],
+) -> Vec<DampedMode> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < poles.len() {
+        let mut j = i + 1;
+        while j < poles.len()
+            && j - i < 6
+            && poles[j].freq_hz - poles[j - 1].freq_hz
+                < 5.0 * ((poles[j].damping_per_s + poles[j - 1].damping_per_s) / std::f64::consts::PI
+                    + 1.0 / poles[j].window_s)
+        {
+            j += 1;
+        }
+        let group = &poles[i..j];
+        let dmin = group.iter().map(|p| p.damping_per_s).fold(f64::INFINITY, f64::min);
+        let len = ((7.0 / dmin.max(1e-3) * sample_rate_hz) as usize).clamp(64.min(x.len()), x.len());
+        let k = 2 * group.len();
+        let mut g = vec![0.0; k * k];
+        let mut b = vec![0.0; k];
+        let mut row = vec![0.0; k];
+        for (n, &xn) in x[..len].iter().enumerate() {
+            let t = n as f64 / sample_rate_hz;
+            for (q, p) in group.iter().enumerate() {
+                let e = (-p.damping_per_s * t).exp();
+                let (s, c) = (std::f64::consts::TAU * p.freq_hz * t).sin_cos();
+                row[2 * q] = e * s;
+                row[2 * q + 1] = e * c;
+            }
+            for r in 0..k {
+                b[r] += row[r] * xn;
+                for c in 0..=r {
+                    g[r * k + c] += row[r] * row[c];
+                }
+            }
+        }
+        for r in 0..k {
+            for c in 0..r {
+                g[c * k + r] = g[r * k + c];
+            }
+            g[r * k + r] *= 1.0 + 1e-9;
+        }
+        if let Some(sol) = crate::refine::cholesky_solve(&mut g, &b, k) {
+            for (q, p) in group.iter().enumerate() {
+                // u sin + v cos = A sin(ωt + θ) with A cos θ = u, A sin θ = v.
+                let (u, v) = (sol[2 * q], sol[2 * q + 1]);
+                out.push(DampedMode {
+                    freq_hz: p.freq_hz,
+                    damping_per_s: p.damping_per_s,
+                    amplitude: u.hypot(v),
+                    phase_rad: v.atan2(u),
+                });
+            }
+        }
+        i = j;
+    }
+    out
 }

@@ -15,6 +15,7 @@
 #![warn(missing_docs)]
 
 pub mod analyze;
+pub mod condition;
 pub mod crb;
 pub mod extract;
 pub mod filter;
@@ -24,6 +25,7 @@ pub mod refine;
 pub mod resample;
 pub mod sine_stft;
 pub mod stft;
+pub mod subspace;
 
 /// Lowest frequency a mode may have, Hz (below the audible range).
 pub const MIN_FREQ_HZ: f64 = 15.0;

@@ -201,7 +201,7 @@ fn several_strikes_warn_and_can_be_chosen() {
         &x,
         FS,
         &AnalyzeParams {
-            strike: 1,
+            strike: Some(1),
             ..AnalyzeParams::default()
         },
     )
@@ -221,7 +221,7 @@ fn several_strikes_warn_and_can_be_chosen() {
             &x,
             FS,
             &AnalyzeParams {
-                strike: 2,
+                strike: Some(2),
                 ..AnalyzeParams::default()
             }
         )

@@ -72,7 +72,7 @@ pub fn analyze_file(
         let hint = if res.strikes_s.len() > 1 {
             format!(
                 " (strike {} of {} lasts {:.0} ms; try another)",
-                params.strike + 1,
+                res.strike + 1,
                 res.strikes_s.len(),
                 1e3 * res.samples as f64 / res.sample_rate_hz
             )
