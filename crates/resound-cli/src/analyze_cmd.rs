@@ -47,12 +47,26 @@ struct Output<'a> {
     sample_rate: f64,
     onset_s: f64,
     strikes_s: &'a [f64],
+    /// The strike analysed, counting from 1, and why.
+    strike: usize,
+    strike_reason: &'a str,
+    conditioning: Conditioning<'a>,
     analysed_s: f64,
     noise_rms: f64,
     clipped_samples: usize,
     warnings: &'a [String],
     elapsed_s: f64,
     modes: &'a [DampedMode],
+}
+
+/// What conditioning did, as written to JSON.
+#[derive(Serialize)]
+struct Conditioning<'a> {
+    dc_offset: f64,
+    highpass_hz: Option<f64>,
+    highpass_reason: &'a str,
+    noise_floor_dbfs: f64,
+    noise_from: &'a str,
 }
 
 /// Runs `analyze`.
@@ -79,6 +93,15 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         sample_rate: res.sample_rate_hz,
         onset_s: res.onset_s,
         strikes_s: &res.strikes_s,
+        strike: res.strike + 1,
+        strike_reason: &res.strike_reason,
+        conditioning: Conditioning {
+            dc_offset: res.conditioning.dc_offset,
+            highpass_hz: res.conditioning.highpass.hz(),
+            highpass_reason: &res.conditioning.highpass_reason,
+            noise_floor_dbfs: res.conditioning.noise_floor_dbfs,
+            noise_from: res.conditioning.noise_from,
+        },
         analysed_s: res.samples as f64 / res.sample_rate_hz,
         noise_rms: res.noise_rms,
         clipped_samples: res.clipped_samples,
@@ -101,6 +124,11 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
 }
 
 fn print_table(r: &Analysis) {
+    let c = &r.conditioning;
+    println!(
+        "{}; offset {:+.5} removed; high-pass {}; noise floor {:.1} dBFS (from the {})",
+        r.strike_reason, c.dc_offset, c.highpass_reason, c.noise_floor_dbfs, c.noise_from
+    );
     println!(
         "onset {:.4} s, {:.3} s analysed at {} Hz, noise {:.1} dBFS, {} modes ({:.2} s)",
         r.onset_s,

@@ -116,6 +116,12 @@ struct Output<'a> {
     starts: usize,
     evaluations: usize,
     reference_modes: usize,
+    /// How sure the estimate is.
+    fit: &'a resound::estimate::report::FitReport,
+    /// The strike analysed (counting from 1) and why.
+    strike: usize,
+    strike_reason: &'a str,
+    warnings: &'a [String],
 }
 
 /// Runs `estimate`.
@@ -145,6 +151,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     };
     let (_, analysis) = analyze_file(&a.audio, &a.take.recording(), &ap)?;
     warn_all(&analysis.warnings);
+    let analysis_strike = (analysis.strike + 1, analysis.strike_reason.clone());
     let model = load_model(&a.mesh, a.scale, a.modes, &a.reference_material)?;
     let hit = snap(&model, query)?;
     let params = EstimateMaterialParams {
@@ -198,12 +205,29 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             starts: info.starts,
             evaluations: info.evaluations,
             reference_modes: info.reference_modes,
+            fit: &info.fit,
+            strike: analysis_strike.0,
+            strike_reason: &analysis_strike.1,
+            warnings: &info.warnings,
         });
     }
     println!(
         "{name}: alpha {:.4e} 1/s, beta {:.4e} s, gamma {:.4e} m²/s², sigma {:.4e}; metric {:.4e} ({} starts, {} evaluations, {:.1} s)",
         p.alpha, p.beta, p.gamma, p.sigma, info.metric, info.starts, info.evaluations, info.elapsed_s
     );
+    let f = &info.fit;
+    let pm = |s: Option<f64>, unit: &str| s.map_or("unknown".to_string(), |s| format!("± {s:.2e} {unit}"));
+    println!(
+        "fit: {} of {} recorded modes paired (median frequency error {:.2} %), {:.0} % of the recording's loudness; alpha {}, beta {}, gamma {}",
+        f.paired_modes,
+        f.recorded_modes,
+        100.0 * f.median_freq_error,
+        100.0 * f.loudness_share,
+        pm(f.alpha_sigma, "1/s"),
+        pm(f.beta_sigma, "s"),
+        pm(f.gamma_sigma, "m²/s²")
+    );
+    println!("{}", analysis_strike.1);
     Ok(())
 }
 

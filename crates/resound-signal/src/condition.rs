@@ -11,7 +11,8 @@
 //!    least [`MIN_LEAD_IN_S`] long, else the file's last [`TAIL_SHARE`].
 //! 3. **Rumble**: where the quiet part's spectral density below [`RUMBLE_MAX_HZ`] stands more
 //!    than [`RUMBLE_EXCESS_DB`] above its density over 300 Hz–3 kHz, a zero-phase high-pass is
-//!    chosen at 1.6× the frequency where the excess falls to 6 dB, but never above 0.7 × the
+//!    chosen at 1.6× the frequency where the excess falls to 6 dB (at most
+//!    [`MAX_RUMBLE_CUTOFF_HZ`]), but never above 0.7 × the
 //!    lowest spectral peak the strike has there (its own low mode). A cut-off the user gives
 //!    replaces the choice.
 
@@ -23,7 +24,9 @@ pub const MIN_LEAD_IN_S: f64 = 0.02;
 /// Share of the file at its end used for the noise when there is no lead-in.
 pub const TAIL_SHARE: f64 = 0.2;
 /// Highest frequency rumble is looked for at, Hz.
-pub const RUMBLE_MAX_HZ: f64 = 250.0;
+pub const RUMBLE_MAX_HZ: f64 = 150.0;
+/// Highest cut-off chosen for rumble, Hz.
+pub const MAX_RUMBLE_CUTOFF_HZ: f64 = 200.0;
 /// Excess of low-frequency noise density over the mid band that counts as rumble, dB.
 pub const RUMBLE_EXCESS_DB: f64 = 10.0;
 
@@ -202,7 +205,7 @@ fn choose_highpass(
     // The edge: the highest frequency below RUMBLE_MAX_HZ where the excess is still > 6 dB.
     let edge_bin = (1..=low).rev().find(|&k| excess_db(k) > 6.0).unwrap_or(1);
     // 1.6× the edge: the zero-phase 4th-order filter takes 28 dB off the rumble's top.
-    let mut cutoff = 1.6 * (edge_bin as f64 + 1.0) * df;
+    let mut cutoff = (1.6 * (edge_bin as f64 + 1.0) * df).min(MAX_RUMBLE_CUTOFF_HZ);
     let mut capped = None;
     // The strike's own low modes: peaks of the strike's spectrum standing 10 dB above the
     // quiet part's density there, or 10 dB above the strike's own neighbouring bins.

@@ -82,6 +82,7 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
     write_atomic(&rec, |w| w.write_all(RECORDING))?;
     let params = resound_signal::AnalyzeParams {
         highpass_hz: Some(100.0),
+        strike: Some(0),
         ..Default::default()
     };
     let (_, analysis) = analyze_file(&rec, &RecordingParams::default(), &params)?;

@@ -259,6 +259,8 @@ pub struct EstimateInfo {
     pub estimated_modes: Vec<DampedMode>,
     /// Wall time, s.
     pub elapsed_s: f64,
+    /// How sure the estimate is: paired modes, loudness share, α/β/γ standard errors.
+    pub fit: resound_estimate::report::FitReport,
     /// Things the user should know (the object's lowest mode above every recorded one, …).
     pub warnings: Vec<String>,
 }
@@ -353,6 +355,29 @@ pub fn estimate_material(
         r
     });
     let mut warnings = implausible;
+    let fit = resound_estimate::report::fit_report(
+        &analysis.modes,
+        &estimated,
+        &p,
+        seg.len() as f64 / fs,
+    );
+    if p.alpha < 1e-6 {
+        warnings.push(format!(
+            "α = {:.1e} 1/s sits at its bound (0): no mass damping is seen; α is not determined by this recording",
+            p.alpha
+        ));
+    }
+    if fit.paired_modes < 2 {
+        warnings.push(format!(
+            "only {} recorded mode(s) lie within 3 % of an estimated one: γ rests on one mode and α, β are not determined",
+            fit.paired_modes
+        ));
+    } else if fit.loudness_share < 0.25 {
+        warnings.push(format!(
+            "the paired modes carry only {:.0} % of the recording's loudness: most of what is heard is not explained by this object",
+            100.0 * fit.loudness_share
+        ));
+    }
     let band_top = analysis.modes.iter().map(|m| m.freq_hz).fold(0.0, f64::max);
     let lowest = model.freq_hz(0) * (p.gamma / side.gamma0).sqrt();
     if lowest > band_top {
@@ -380,6 +405,7 @@ pub fn estimate_material(
         reference_modes: analysis.modes.len(),
         estimated_modes: estimated,
         elapsed_s: t0.elapsed().as_secs_f64(),
+        fit,
         warnings,
     };
     Ok((material, info))
