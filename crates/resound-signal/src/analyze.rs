@@ -143,7 +143,7 @@ pub enum AnalyzeError {
 pub const TRANSIENT_DAMPING_PER_S: f64 = 1500.0;
 
 /// Moves an onset the envelope scan put early to the first sample that stands 5 σ above the
-/// lead-in's noise, searching from 20 ms before it (never before the previous strike) to 5 ms
+/// lead-in's noise (and within 40 dB of the peak), searching from 20 ms before it (never before the previous strike) to 5 ms
 /// after it. A model that starts before the strike has to explain a stretch of silence with a
 /// burst of fast decays; one that starts a few samples late only sees a phase shift. Without a
 /// lead-in (the strike starts the file) the scan's onset stands.
@@ -154,7 +154,8 @@ fn refine_onset(
     sample_rate_hz: f64,
     conditioning: &crate::condition::Conditioning,
 ) -> usize {
-    if conditioning.noise_from != "lead-in" || onset == 0 {
+    // Later strikes sit on the tail of the one before: no lead-in noise to compare with.
+    if conditioning.noise_from != "lead-in" || onset == 0 || previous > 0 {
         return onset;
     }
     let from = onset
@@ -169,9 +170,11 @@ fn refine_onset(
     } else {
         10f64.powf(conditioning.noise_floor_dbfs / 20.0)
     };
+    let peak = x[from..].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let threshold = (5.0 * sigma).max(1e-2 * peak);
     x[from..to]
         .iter()
-        .position(|v| v.abs() > 5.0 * sigma)
+        .position(|v| v.abs() > threshold)
         .map_or(onset, |i| from + i)
 }
 
@@ -217,6 +220,11 @@ pub fn analyze(
             (a.min(v), b.max(v))
         });
     if hi - lo <= 1e-7 {
+        if hi.abs().max(lo.abs()) <= 1e-7 {
+            return Err(AnalyzeError::Silent {
+                peak_dbfs: 20.0 * hi.abs().max(lo.abs()).max(1e-300).log10(),
+            });
+        }
         return Err(AnalyzeError::Constant { value: signal[0] });
     }
     let mut x = signal.to_vec();
@@ -227,7 +235,7 @@ pub fn analyze(
         let mid = sorted.len() / 2;
         let centre = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
         let mut c: Vec<f64> = y.iter().map(|v| v - centre).collect();
-        highpass_zero_phase(&mut c, 100.0_f64.min(0.2 * sample_rate_hz), sample_rate_hz);
+        crate::filter::highpass_causal(&mut c, 100.0_f64.min(0.2 * sample_rate_hz), sample_rate_hz);
         scan(&c, sample_rate_hz).onsets.first().copied()
     };
     let conditioning = crate::condition::condition(
@@ -286,7 +294,7 @@ pub fn analyze(
             found: sc.onsets.len(),
         });
     };
-    let previous = if strike > 0 { sc.onsets[strike - 1] } else { 0 };
+    let previous = if strike > 0 { sc.onsets[strike - 1].max(1) } else { 0 };
     let onset = refine_onset(&causal, onset, previous, sample_rate_hz, &conditioning);
     let end = sc.onsets.get(strike + 1).copied().unwrap_or(x.len());
     let max_len = (params.max_duration_s * sample_rate_hz) as usize;
@@ -566,7 +574,8 @@ fn subspace_pass(
         noise_rms,
         &SubspaceParams::default(),
         (crate::MIN_DAMPING_PER_S, TRANSIENT_DAMPING_PER_S),
-        crate::MIN_FREQ_HZ,
+        // Below 20 Hz a new pole is more likely a filter's or resampler's edge than a mode.
+        crate::MIN_FREQ_HZ.max(20.0),
     );
     let tol = |p: &crate::subspace::Pole, m: &DampedMode| {
         0.3 / p.window_s + 0.1 * (p.damping_per_s + m.damping_per_s) / std::f64::consts::PI

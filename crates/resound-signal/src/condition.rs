@@ -5,8 +5,9 @@
 //! may hold several strikes. Every step here is measured from the data and reported
 //! ([`Conditioning`]), so a user sees what was done to their file and why.
 //!
-//! 1. **DC offset**: the mean of the lead-in, or without one the median of the whole file (the
-//!    centre of any oscillation), removed.
+//! 1. **DC offset**: the mean of the lead-in, removed; without a lead-in, the median of the whole
+//!    file (the centre of any oscillation), removed only above −60 dB re the peak (the median of
+//!    a decaying oscillation is slightly off its centre).
 //! 2. **Noise**: measured on the quiet part — the lead-in before the first strike when it is at
 //!    least [`MIN_LEAD_IN_S`] long, else the file's last [`TAIL_SHARE`].
 //! 3. **Rumble**: where the quiet part's spectral density below [`RUMBLE_MAX_HZ`] stands more
@@ -20,7 +21,7 @@ use crate::filter::highpass_zero_phase;
 use realfft::RealFftPlanner;
 
 /// Shortest lead-in the noise is measured on, s.
-pub const MIN_LEAD_IN_S: f64 = 0.02;
+pub const MIN_LEAD_IN_S: f64 = 0.01;
 /// Share of the file at its end used for the noise when there is no lead-in.
 pub const TAIL_SHARE: f64 = 0.2;
 /// Highest frequency rumble is looked for at, Hz.
@@ -87,10 +88,18 @@ pub fn condition(
     };
     // The lead-in's mean is the offset itself; without one, the median of the file is the
     // centre of its oscillation.
+    let peak = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let dc = if lead_in {
         x[quiet.clone()].iter().sum::<f64>() / quiet.len().max(1) as f64
     } else {
-        median(x)
+        // The median of a decaying oscillation is not exactly its centre: below −60 dB re the
+        // peak an offset is left alone (removing a biased estimate would do more harm).
+        let m = median(x);
+        if m.abs() > 1e-3 * peak {
+            m
+        } else {
+            0.0
+        }
     };
     for v in x.iter_mut() {
         *v -= dc;
@@ -194,6 +203,21 @@ fn choose_highpass(
     // ringing in the tail raises a few bins only.
     let top = bin(100.0).max(2);
     let raised = (1..=top).filter(|&k| excess_db(k) > RUMBLE_EXCESS_DB).count();
+    // Rumble is stationary: in the tail it must be about as strong as in the strike's first
+    // frames (a strike's own low content, or its leakage, decays with it).
+    if noise_from == "tail" && onset + 2 * len <= x.len() {
+        let s = welch(&x[onset..onset + 2 * len], len);
+        let band = |p: &[f64]| p[1..=top].iter().sum::<f64>();
+        if band(&psd) < 0.3 * band(&s) {
+            return (
+                HighpassChoice::None,
+                format!(
+                    "none: the low band of the tail is {:.0} dB below the strike's (it decays with the strike: not rumble)",
+                    10.0 * (band(&s) / band(&psd).max(1e-300)).log10()
+                ),
+            );
+        }
+    }
     if worst < RUMBLE_EXCESS_DB || 2 * raised < top {
         return (
             HighpassChoice::None,

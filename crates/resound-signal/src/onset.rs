@@ -72,6 +72,9 @@ pub fn scan(x: &[f64], sample_rate_hz: f64) -> Scan {
     };
     // The onset is the first sample of the loud run that ends the quiet: from it on, the
     // signal is the strike alone (a model that starts there fits it exactly).
+    // Never further back than where the signal is 40 dB below its peak: a band-limited strike
+    // (resampled, filtered) rings faintly before it, and a model must not start there.
+    let quiet = quiet.max(1e-2 * peak);
     let mut onset = first_loud;
     while onset > 0 && x[onset - 1].abs() > quiet {
         onset -= 1;
