@@ -291,7 +291,10 @@ pub fn wide_case(rng: &mut SmallRng, snr_db: f64) -> WideCase {
         // the pair can be told apart within the ring (the gap exceeds a tenth of the line width).
         if rng.random_range(0.0..1.0) < 0.25 {
             let f2 = f * (1.0 + 10f64.powf(rng.random_range(-3.3..-2.3)));
-            if f2 < 22000.0 && (f2 - f) > 0.1 * d / std::f64::consts::PI && far(&modes[..modes.len() - 1], f2, d) {
+            if f2 < 22000.0
+                && (f2 - f) > 0.1 * d / std::f64::consts::PI
+                && far(&modes[..modes.len() - 1], f2, d)
+            {
                 modes.push(DampedMode {
                     freq_hz: f2,
                     damping_per_s: d,
@@ -308,7 +311,8 @@ pub fn wide_case(rng: &mut SmallRng, snr_db: f64) -> WideCase {
     let sigma = (energy / n as f64 / 10f64.powf(snr_db / 10.0)).sqrt();
     let onset = (rng.random_range(0.05..1.0) * WIDE_FS) as usize;
     let dc = rng.random_range(-0.002..0.002);
-    let normal = Normal::new(0.0, sigma).unwrap_or_else(|_| Normal::new(0.0, 1e-12).expect("valid"));
+    let normal =
+        Normal::new(0.0, sigma).unwrap_or_else(|_| Normal::new(0.0, 1e-12).expect("valid"));
     let mut signal = vec![0.0; onset + n];
     for (i, v) in signal.iter_mut().enumerate() {
         *v = dc + normal.sample(rng) + if i >= onset { clean[i - onset] } else { 0.0 };
@@ -385,24 +389,23 @@ pub fn wide(snr_db: f64, trials: usize, seed: u64, params: &AnalyzeParams) -> Wi
         let level = |m: &DampedMode| resound_signal::mode_level(m, resound_signal::LEVEL_WINDOW_S);
         let strongest = truth.iter().map(level).fold(0.0, f64::max);
         for (i, t) in truth.iter().enumerate() {
-            let energy = t.amplitude * t.amplitude * WIDE_FS
+            let energy = t.amplitude
+                * t.amplitude
+                * WIDE_FS
                 * (-(-2.0 * t.damping_per_s * n as f64 / WIDE_FS).exp_m1())
                 / (4.0 * t.damping_per_s);
             if level(t) < strongest * 1e-3 || energy < 100.0 * case.sigma * case.sigma {
                 continue;
             }
             let doublet = truth.iter().enumerate().any(|(j, u)| {
-                j != i && (u.freq_hz / t.freq_hz - 1.0).abs() < 0.0051 && u.damping_per_s == t.damping_per_s
+                j != i
+                    && (u.freq_hz / t.freq_hz - 1.0).abs() < 0.0051
+                    && u.damping_per_s == t.damping_per_s
             });
             let hit = matched[i].is_some();
-            for (c, on) in [
-                true,
-                t.damping_per_s > 100.0,
-                t.freq_hz < 300.0,
-                doublet,
-            ]
-            .into_iter()
-            .enumerate()
+            for (c, on) in [true, t.damping_per_s > 100.0, t.freq_hz < 300.0, doublet]
+                .into_iter()
+                .enumerate()
             {
                 if on {
                     counts[c][0] += 1;

@@ -486,8 +486,16 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
             })
             .collect::<Result<Vec<f64>>>()
     };
-    let snrs = if a.wide_only { Vec::new() } else { parse(&a.snr_db)? };
-    let wide_snrs = if a.wide == 0 { Vec::new() } else { parse(&a.wide_snr_db)? };
+    let snrs = if a.wide_only {
+        Vec::new()
+    } else {
+        parse(&a.snr_db)?
+    };
+    let wide_snrs = if a.wide == 0 {
+        Vec::new()
+    } else {
+        parse(&a.wide_snr_db)?
+    };
     let mut methods = vec![("refined", AnalyzeParams::default())];
     if !a.no_stage1 {
         methods.push((
@@ -548,11 +556,11 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
             mix.iter().map(|m| m.seconds_per_audio_second).sum::<f64>() / mix.len().max(1) as f64;
         if !a.json {
             if let Some(single) = &single {
-            println!(
-                "[{name}] protocol 1 (Ren 2013, {} noise-free single modes, 44.1 kHz, 1 s):",
-                single.trials
-            );
-            println!(
+                println!(
+                    "[{name}] protocol 1 (Ren 2013, {} noise-free single modes, 44.1 kHz, 1 s):",
+                    single.trials
+                );
+                println!(
                 "  mean error f {:.2e} %  d {:.2e} %  (max {:.2e} %, {:.2e} %), missed {}, {:.3} s per s of audio",
                 single.mean_freq_error_pct,
                 single.mean_damping_error_pct,
@@ -561,38 +569,49 @@ fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
                 single.missed,
                 single.seconds_per_audio_second
             );
-            println!("[{name}] protocol 2 (mixtures of 1-24 modes, white noise):");
-            println!(
-                "  {:>6} {:>7} {:>9} {:>11} {:>10} {:>12} {:>12} {:>10}",
-                "SNR_dB",
-                "modes",
-                "recall",
-                "recall(det)",
-                "spurious",
-                "f_err/CRB",
-                "d_err/CRB",
-                "s/s audio"
-            );
-            for m in &mix {
+                println!("[{name}] protocol 2 (mixtures of 1-24 modes, white noise):");
                 println!(
-                    "  {:>6.0} {:>7} {:>9.3} {:>11.3} {:>10.3} {:>12.2} {:>12.2} {:>10.3}",
-                    m.snr_db,
-                    m.reference_modes,
-                    m.recall,
-                    m.recall_detectable,
-                    m.spurious,
-                    m.median_freq_error_over_crb,
-                    m.median_damping_error_over_crb,
-                    m.seconds_per_audio_second
+                    "  {:>6} {:>7} {:>9} {:>11} {:>10} {:>12} {:>12} {:>10}",
+                    "SNR_dB",
+                    "modes",
+                    "recall",
+                    "recall(det)",
+                    "spurious",
+                    "f_err/CRB",
+                    "d_err/CRB",
+                    "s/s audio"
                 );
-            }
-            println!("[{name}] mean analysis time per second of audio (mixtures): {secs:.3} s");
+                for m in &mix {
+                    println!(
+                        "  {:>6.0} {:>7} {:>9.3} {:>11.3} {:>10.3} {:>12.2} {:>12.2} {:>10.3}",
+                        m.snr_db,
+                        m.reference_modes,
+                        m.recall,
+                        m.recall_detectable,
+                        m.spurious,
+                        m.median_freq_error_over_crb,
+                        m.median_damping_error_over_crb,
+                        m.seconds_per_audio_second
+                    );
+                }
+                println!("[{name}] mean analysis time per second of audio (mixtures): {secs:.3} s");
             }
             if !wides.is_empty() {
                 println!("[{name}] protocol 4 (wide: 20 Hz-22 kHz, d 0.1-1000 1/s, doublets, noisy lead-in + DC, 48 kHz):");
                 println!(
                     "  {:>6} {:>6} {:>7} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>9} {:>7} {:>9}",
-                    "SNR_dB", "modes", "recall", "spurious", "d>100", "f<300", "doublet", "f/CRB", "d/CRB", "onset2ms", "failed", "s/s"
+                    "SNR_dB",
+                    "modes",
+                    "recall",
+                    "spurious",
+                    "d>100",
+                    "f<300",
+                    "doublet",
+                    "f/CRB",
+                    "d/CRB",
+                    "onset2ms",
+                    "failed",
+                    "s/s"
                 );
                 for w in &wides {
                     println!(

@@ -216,7 +216,9 @@ pub fn run(a: EstimateArgs) -> Result<()> {
         p.alpha, p.beta, p.gamma, p.sigma, info.metric, info.starts, info.evaluations, info.elapsed_s
     );
     let f = &info.fit;
-    let pm = |s: Option<f64>, unit: &str| s.map_or("unknown".to_string(), |s| format!("± {s:.2e} {unit}"));
+    let pm = |s: Option<f64>, unit: &str| {
+        s.map_or("unknown".to_string(), |s| format!("± {s:.2e} {unit}"))
+    };
     println!(
         "fit: {} of {} recorded modes paired (median frequency error {:.2} %), {:.0} % of the recording's loudness; alpha {}, beta {}, gamma {}",
         f.paired_modes,

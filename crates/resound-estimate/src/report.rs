@@ -66,9 +66,7 @@ pub fn fit_report(
         let best = estimated
             .iter()
             .enumerate()
-            .filter(|(j, e)| {
-                !used[*j] && (e.freq_hz / r.freq_hz - 1.0).abs() <= PAIR_TOLERANCE
-            })
+            .filter(|(j, e)| !used[*j] && (e.freq_hz / r.freq_hz - 1.0).abs() <= PAIR_TOLERANCE)
             .min_by(|a, b| {
                 (a.1.freq_hz - r.freq_hz)
                     .abs()
@@ -100,7 +98,13 @@ pub fn fit_report(
     let (alpha_sigma, beta_sigma) = if pairs.len() >= 3 {
         let pts: Vec<(f64, f64, f64)> = pairs
             .iter()
-            .map(|(r, _, w)| ((TAU * r.freq_hz).powi(2), 2.0 * r.damping_per_s, w.max(1e-6 * paired)))
+            .map(|(r, _, w)| {
+                (
+                    (TAU * r.freq_hz).powi(2),
+                    2.0 * r.damping_per_s,
+                    w.max(1e-6 * paired),
+                )
+            })
             .collect();
         match line_errors(&pts) {
             Some((sa, sb)) => (Some(sa), Some(sb)),
@@ -124,7 +128,12 @@ pub fn fit_report(
 fn weighted_mean_error(x: &[f64], w: &[f64]) -> f64 {
     let sw: f64 = w.iter().sum();
     let mean = x.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / sw;
-    let var = x.iter().zip(w).map(|(a, b)| b * (a - mean).powi(2)).sum::<f64>() / sw;
+    let var = x
+        .iter()
+        .zip(w)
+        .map(|(a, b)| b * (a - mean).powi(2))
+        .sum::<f64>()
+        / sw;
     let n_eff = sw * sw / w.iter().map(|b| b * b).sum::<f64>();
     (var / (n_eff - 1.0).max(1.0)).sqrt()
 }
@@ -139,7 +148,11 @@ fn line_errors(pts: &[(f64, f64, f64)]) -> Option<(f64, f64)> {
     if !(sxx > 0.0) {
         return None;
     }
-    let b = pts.iter().map(|p| p.2 * (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx;
+    let b = pts
+        .iter()
+        .map(|p| p.2 * (p.0 - mx) * (p.1 - my))
+        .sum::<f64>()
+        / sxx;
     let a = my - b * mx;
     let n_eff = sw * sw / pts.iter().map(|p| p.2 * p.2).sum::<f64>();
     if n_eff <= 2.0 {
@@ -190,7 +203,10 @@ mod tests {
             .enumerate()
             .map(|(i, m)| {
                 let s = if i % 2 == 0 { 1.0 } else { -1.0 };
-                mode(m.freq_hz * (1.0 + 0.01 * s), m.damping_per_s * (1.0 + 0.2 * s))
+                mode(
+                    m.freq_hz * (1.0 + 0.01 * s),
+                    m.damping_per_s * (1.0 + 0.2 * s),
+                )
             })
             .collect();
         let r = fit_report(&noisy, &exact, &p, 1.0);

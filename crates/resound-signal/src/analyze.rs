@@ -3,7 +3,6 @@
 //! the residual for modes the first round hid.
 
 use crate::extract::{extract_modes, ExtractParams};
-use crate::filter::highpass_zero_phase;
 use crate::onset::scan;
 use crate::refine::{refine_modes, RefineInfo, RefineParams, Seed};
 use resound_core::DampedMode;
@@ -294,7 +293,11 @@ pub fn analyze(
             found: sc.onsets.len(),
         });
     };
-    let previous = if strike > 0 { sc.onsets[strike - 1].max(1) } else { 0 };
+    let previous = if strike > 0 {
+        sc.onsets[strike - 1].max(1)
+    } else {
+        0
+    };
     let onset = refine_onset(&causal, onset, previous, sample_rate_hz, &conditioning);
     let end = sc.onsets.get(strike + 1).copied().unwrap_or(x.len());
     let max_len = (params.max_duration_s * sample_rate_hz) as usize;
@@ -410,9 +413,14 @@ pub fn analyze(
             let (_, i) = refine_modes(seg, sample_rate_hz, &mut seeds, &refine);
             info.iterations += i.iterations;
             info.noise_rms = i.noise_rms;
-            prune(&mut seeds, sample_rate_hz, seg.len(), info.noise_rms, params);
-            if crate::refine::merge_all_duplicates(&mut seeds, seg.len() as f64 / sample_rate_hz)
-            {
+            prune(
+                &mut seeds,
+                sample_rate_hz,
+                seg.len(),
+                info.noise_rms,
+                params,
+            );
+            if crate::refine::merge_all_duplicates(&mut seeds, seg.len() as f64 / sample_rate_hz) {
                 let (_, i) = refine_modes(
                     seg,
                     sample_rate_hz,
@@ -424,7 +432,13 @@ pub fn analyze(
                 );
                 info.iterations += i.iterations;
                 info.noise_rms = i.noise_rms;
-                prune(&mut seeds, sample_rate_hz, seg.len(), info.noise_rms, params);
+                prune(
+                    &mut seeds,
+                    sample_rate_hz,
+                    seg.len(),
+                    info.noise_rms,
+                    params,
+                );
             }
             if rss(&seeds) >= kept_rss {
                 seeds = kept;
@@ -438,6 +452,22 @@ pub fn analyze(
     modes.sort_by(|a, b| level(b).total_cmp(&level(a)));
     modes.truncate(params.max_modes);
     modes.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    // A mode that loses less than a tenth of its amplitude over the whole segment has no
+    // measured damping: it rings past the file's end, or something keeps exciting it.
+    let window_s = seg.len() as f64 / sample_rate_hz;
+    let undetermined: Vec<String> = modes
+        .iter()
+        .filter(|m| m.damping_per_s * window_s < 0.1)
+        .map(|m| format!("{:.0} Hz", m.freq_hz))
+        .collect();
+    if !undetermined.is_empty() {
+        warnings.push(format!(
+            "{} mode(s) ({}) lose less than 10 % of their amplitude over the {:.2} s analysed: their damping is not determined (they ring past the end, or the excitation goes on, as in rolling)",
+            undetermined.len(),
+            undetermined.join(", "),
+            window_s
+        ));
+    }
     Ok(Analysis {
         sample_rate_hz,
         onset_s,
@@ -507,12 +537,17 @@ fn strongest_clean(x: &[f64], onsets: &[usize], sample_rate_hz: f64) -> (usize, 
     let gap = (0.1 * sample_rate_hz) as usize;
     let peak_of = |i: usize| {
         let a = onsets[i];
-        let b = (a + w).min(onsets.get(i + 1).copied().unwrap_or(x.len())).min(x.len());
+        let b = (a + w)
+            .min(onsets.get(i + 1).copied().unwrap_or(x.len()))
+            .min(x.len());
         x[a..b].iter().fold(0.0f64, |m, v| m.max(v.abs()))
     };
     let global = x.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let clean = |i: usize| {
-        let long = onsets.get(i + 1).map_or(x.len() - onsets[i], |&n| n - onsets[i]) >= gap;
+        let long = onsets
+            .get(i + 1)
+            .map_or(x.len() - onsets[i], |&n| n - onsets[i])
+            >= gap;
         let a = onsets[i];
         let b = onsets.get(i + 1).copied().unwrap_or(x.len()).min(a + w);
         let flat = x[a..b]
@@ -619,7 +654,10 @@ fn subspace_pass(
             true
         }
     });
-    let room = params.max_modes.saturating_sub(seeds.len()).max(new.len().min(8));
+    let room = params
+        .max_modes
+        .saturating_sub(seeds.len())
+        .max(new.len().min(8));
     let mut new = new;
     new.sort_by(|a, b| b.strength.total_cmp(&a.strength));
     new.truncate(room);
@@ -673,14 +711,19 @@ fn least_squares_amplitudes(
         while j < poles.len()
             && j - i < 6
             && poles[j].freq_hz - poles[j - 1].freq_hz
-                < 5.0 * ((poles[j].damping_per_s + poles[j - 1].damping_per_s) / std::f64::consts::PI
-                    + 1.0 / poles[j].window_s)
+                < 5.0
+                    * ((poles[j].damping_per_s + poles[j - 1].damping_per_s) / std::f64::consts::PI
+                        + 1.0 / poles[j].window_s)
         {
             j += 1;
         }
         let group = &poles[i..j];
-        let dmin = group.iter().map(|p| p.damping_per_s).fold(f64::INFINITY, f64::min);
-        let len = ((7.0 / dmin.max(1e-3) * sample_rate_hz) as usize).clamp(64.min(x.len()), x.len());
+        let dmin = group
+            .iter()
+            .map(|p| p.damping_per_s)
+            .fold(f64::INFINITY, f64::min);
+        let len =
+            ((7.0 / dmin.max(1e-3) * sample_rate_hz) as usize).clamp(64.min(x.len()), x.len());
         let k = 2 * group.len();
         let mut g = vec![0.0; k * k];
         let mut b = vec![0.0; k];

@@ -202,7 +202,9 @@ fn choose_highpass(
     // Rumble is broadband: most bins up to 100 Hz stand above the mid band. A low mode still
     // ringing in the tail raises a few bins only.
     let top = bin(100.0).max(2);
-    let raised = (1..=top).filter(|&k| excess_db(k) > RUMBLE_EXCESS_DB).count();
+    let raised = (1..=top)
+        .filter(|&k| excess_db(k) > RUMBLE_EXCESS_DB)
+        .count();
     // Rumble is stationary: in the tail it must be about as strong as in the strike's first
     // frames (a strike's own low content, or its leakage, decays with it).
     if noise_from == "tail" && onset + 2 * len <= x.len() {

@@ -268,12 +268,7 @@ fn band_signal(
 
 /// Least-squares ESPRIT on the complex samples `y` with noise variance `noise_var`: returns
 /// the poles and their eigenvalue-to-noise ratios.
-fn esprit(
-    y: &[Complex64],
-    noise_var: f64,
-    max_order: usize,
-    margin: f64,
-) -> Vec<(Complex64, f64)> {
+fn esprit(y: &[Complex64], noise_var: f64, max_order: usize, margin: f64) -> Vec<(Complex64, f64)> {
     let k = y.len();
     let l = (k / 3).max(4);
     if k < l + 8 {
@@ -356,7 +351,14 @@ mod tests {
             mode(3100.0, 900.0, 0.5),
         ];
         let x = synthesize(&truth, fs, 48000);
-        let poles = find_poles(&x, fs, 1e-7, &SubspaceParams::default(), (0.01, 5000.0), 15.0);
+        let poles = find_poles(
+            &x,
+            fs,
+            1e-7,
+            &SubspaceParams::default(),
+            (0.01, 5000.0),
+            15.0,
+        );
         for t in &truth {
             let p = nearest(&poles, t.freq_hz);
             assert!(
@@ -377,7 +379,14 @@ mod tests {
         let mut rng = rand::rngs::SmallRng::seed_from_u64(5);
         let nrm = Normal::new(0.0, 0.01).expect("valid");
         let x: Vec<f64> = (0..48000).map(|_| nrm.sample(&mut rng)).collect();
-        let poles = find_poles(&x, 48000.0, 0.01, &SubspaceParams::default(), (0.01, 5000.0), 15.0);
+        let poles = find_poles(
+            &x,
+            48000.0,
+            0.01,
+            &SubspaceParams::default(),
+            (0.01, 5000.0),
+            15.0,
+        );
         assert!(poles.is_empty(), "{} poles: {poles:?}", poles.len());
     }
 }

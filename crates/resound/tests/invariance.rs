@@ -80,7 +80,15 @@ fn as_recorded(x: &[f64], fs: f64, lead_in_s: f64, seed: u64) -> Vec<f64> {
 /// f (0.05 %) and d (15 %) when `modes_too`; always, the onset is found at the lead-in's end
 /// (± 2 ms), the offset and the noise floor are measured and the rumble gets a high-pass.
 fn check_conditions(name: &str, x: &[f64], fs: f64, modes_too: bool) -> usize {
-    let clean = analyze(x, fs, &AnalyzeParams { highpass_hz: Some(60.0), ..Default::default() }).unwrap();
+    let clean = analyze(
+        x,
+        fs,
+        &AnalyzeParams {
+            highpass_hz: Some(60.0),
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let raw = as_recorded(x, fs, 1.0, 7);
     let got = analyze(&raw, fs, &AnalyzeParams::default()).unwrap();
     // Between the lead-in's end and the clean analysis's onset (a file that fades in has its
@@ -92,8 +100,16 @@ fn check_conditions(name: &str, x: &[f64], fs: f64, modes_too: bool) -> usize {
         1.0 + clean.onset_s,
         got.conditioning
     );
-    assert!(got.conditioning.highpass.hz().is_some(), "{name}: rumble not handled: {:?}", got.conditioning);
-    assert!((got.conditioning.dc_offset + 0.0014).abs() < 2e-4, "{name}: {:?}", got.conditioning);
+    assert!(
+        got.conditioning.highpass.hz().is_some(),
+        "{name}: rumble not handled: {:?}",
+        got.conditioning
+    );
+    assert!(
+        (got.conditioning.dc_offset + 0.0014).abs() < 2e-4,
+        "{name}: {:?}",
+        got.conditioning
+    );
     // Ringing modes (Q = πf/d ≥ 20): a heavily damped cluster has no unique decomposition.
     let ringing: Vec<DampedMode> = clean
         .modes
@@ -103,11 +119,34 @@ fn check_conditions(name: &str, x: &[f64], fs: f64, modes_too: bool) -> usize {
         .collect();
     let reference = strongest_of(ringing, 5);
     if std::env::var("SHOW").is_ok() {
-        let show = |a: &Analysis| { let mut l = strongest(a, 12); l.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz)); l.iter().map(|m| format!("{:.0}/{:.1}/{:.0}", m.freq_hz, m.damping_per_s, 20.0*level(m).log10())).collect::<Vec<_>>().join(" ") };
-        eprintln!("clean {} modes: {}\nraw   {} modes: {}", clean.modes.len(), show(&clean), got.modes.len(), show(&got));
+        let show = |a: &Analysis| {
+            let mut l = strongest(a, 12);
+            l.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+            l.iter()
+                .map(|m| {
+                    format!(
+                        "{:.0}/{:.1}/{:.0}",
+                        m.freq_hz,
+                        m.damping_per_s,
+                        20.0 * level(m).log10()
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        eprintln!(
+            "clean {} modes: {}\nraw   {} modes: {}",
+            clean.modes.len(),
+            show(&clean),
+            got.modes.len(),
+            show(&got)
+        );
     }
     let pairs = matched(&reference, &got.modes);
-    let agree = pairs.iter().filter(|(r, o)| damping_agrees(r, o, 0.15)).count();
+    let agree = pairs
+        .iter()
+        .filter(|(r, o)| damping_agrees(r, o, 0.15))
+        .count();
     eprintln!(
         "{name}: {} of {} strongest modes found again, {agree} with d within 15 % (high-pass {:?}, noise {:.1} dBFS from the {})",
         pairs.len(),
@@ -117,7 +156,10 @@ fn check_conditions(name: &str, x: &[f64], fs: f64, modes_too: bool) -> usize {
         got.conditioning.noise_from
     );
     for (r, o) in &pairs {
-        eprintln!("    {:9.2} Hz {:8.2}/s  ->  {:9.2} Hz {:8.2}/s", r.freq_hz, r.damping_per_s, o.freq_hz, o.damping_per_s);
+        eprintln!(
+            "    {:9.2} Hz {:8.2}/s  ->  {:9.2} Hz {:8.2}/s",
+            r.freq_hz, r.damping_per_s, o.freq_hz, o.damping_per_s
+        );
     }
     // The noise floor is the added noise (the rumble is filtered off), unless the cut-off had
     // to stay below the strike's own lowest mode.
@@ -139,7 +181,11 @@ fn check_conditions(name: &str, x: &[f64], fs: f64, modes_too: bool) -> usize {
 
 #[test]
 fn conditioning_finds_the_strike_offset_noise_and_rumble_put_before_bundled_strikes() {
-    for name in ["default_dug_metal.1.ogg", "default_place_node_metal.1.ogg", "default_dig_choppy.1.ogg"] {
+    for name in [
+        "default_dug_metal.1.ogg",
+        "default_place_node_metal.1.ogg",
+        "default_dig_choppy.1.ogg",
+    ] {
         let (ch, fs) = channels(name);
         check_conditions(name, &ch[0], fs, false);
     }
@@ -184,10 +230,16 @@ fn a_lead_in_dc_offset_and_rumble_leave_the_modes_of_real_impact_strikes_unchang
 
 fn real_impact(modes_too: bool) {
     let Some(dir) = shared_data() else {
-        eprintln!("skipped: ../shared/data is absent (the RealImpact files stay out of the repository)");
+        eprintln!(
+            "skipped: ../shared/data is absent (the RealImpact files stay out of the repository)"
+        );
         return;
     };
-    for name in ["CeramicKoiBowlImpact.wav", "CupImpact.wav", "SteelStandImpact.wav"] {
+    for name in [
+        "CeramicKoiBowlImpact.wav",
+        "CupImpact.wav",
+        "SteelStandImpact.wav",
+    ] {
         let path = dir.join("recordings/realimpact-mesheditor").join(name);
         if !path.is_file() {
             eprintln!("skipped {name}: absent");
