@@ -26,7 +26,8 @@ pub struct AnalyzeArgs {
     /// strongest's.
     #[arg(allow_hyphen_values = true, long, default_value_t = 60.0)]
     pub min_db: f64,
-    /// Zero-phase 4th-order Butterworth high-pass first (e.g. 100 against room rumble).
+    /// Zero-phase 4th-order Butterworth high-pass first (e.g. 100 against room rumble). Without
+    /// it, one is chosen when rumble is measured before or after the strike (reported).
     #[arg(allow_hyphen_values = true, long, value_name = "HZ")]
     pub highpass_hz: Option<f64>,
     #[command(flatten)]

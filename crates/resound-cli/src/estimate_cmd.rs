@@ -35,7 +35,8 @@ pub struct EstimateArgs {
     /// Reference material for the modal solve (only E/ρ's ratio matters; ν is kept).
     #[arg(long, default_value = "ceramic")]
     pub reference_material: String,
-    /// Zero-phase high-pass before analysis (e.g. 100 against room rumble).
+    /// Zero-phase 4th-order Butterworth high-pass first (e.g. 100 against room rumble). Without
+    /// it, one is chosen when rumble is measured before or after the strike (reported).
     #[arg(allow_hyphen_values = true, long, value_name = "HZ")]
     pub highpass_hz: Option<f64>,
     #[command(flatten)]

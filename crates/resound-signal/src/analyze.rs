@@ -372,16 +372,7 @@ pub fn analyze(
             sweeps: 1,
             ..RefineParams::default()
         };
-        let (_, i) = refine_modes(seg, sample_rate_hz, &mut seeds, &refine);
-        info.iterations += i.iterations;
-        info.noise_rms = i.noise_rms;
-        prune(
-            &mut seeds,
-            sample_rate_hz,
-            seg.len(),
-            info.noise_rms,
-            params,
-        );
+        refine_and_prune(seg, sample_rate_hz, &mut seeds, &refine, &mut info, params);
     }
     if params.refine && params.subspace && !seeds.is_empty() {
         // The residual's spread overstates the noise while modes are still missing from the
@@ -410,35 +401,13 @@ pub fn analyze(
                 sweeps: 2,
                 ..RefineParams::default()
             };
-            let (_, i) = refine_modes(seg, sample_rate_hz, &mut seeds, &refine);
-            info.iterations += i.iterations;
-            info.noise_rms = i.noise_rms;
-            prune(
-                &mut seeds,
-                sample_rate_hz,
-                seg.len(),
-                info.noise_rms,
-                params,
-            );
+            refine_and_prune(seg, sample_rate_hz, &mut seeds, &refine, &mut info, params);
             if crate::refine::merge_all_duplicates(&mut seeds, seg.len() as f64 / sample_rate_hz) {
-                let (_, i) = refine_modes(
-                    seg,
-                    sample_rate_hz,
-                    &mut seeds,
-                    &RefineParams {
-                        sweeps: 1,
-                        ..RefineParams::default()
-                    },
-                );
-                info.iterations += i.iterations;
-                info.noise_rms = i.noise_rms;
-                prune(
-                    &mut seeds,
-                    sample_rate_hz,
-                    seg.len(),
-                    info.noise_rms,
-                    params,
-                );
+                let once = RefineParams {
+                    sweeps: 1,
+                    ..RefineParams::default()
+                };
+                refine_and_prune(seg, sample_rate_hz, &mut seeds, &once, &mut info, params);
             }
             if rss(&seeds) >= kept_rss {
                 seeds = kept;
@@ -489,6 +458,21 @@ pub fn analyze(
         extract_s,
         total_s: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// One refinement of all seeds, then [`prune`]; the iterations and noise go into `info`.
+fn refine_and_prune(
+    seg: &[f64],
+    sample_rate_hz: f64,
+    seeds: &mut Vec<Seed>,
+    refine: &RefineParams,
+    info: &mut RefineInfo,
+    params: &AnalyzeParams,
+) {
+    let (_, i) = refine_modes(seg, sample_rate_hz, seeds, refine);
+    info.iterations += i.iterations;
+    info.noise_rms = i.noise_rms;
+    prune(seeds, sample_rate_hz, seg.len(), info.noise_rms, params);
 }
 
 /// Drops modes that are unphysical, too weak relative to the strongest, or not significant
@@ -679,22 +663,11 @@ fn subspace_pass(
 }
 
 fn add_mode(mode: &DampedMode, sample_rate_hz: f64, scale: f64, out: &mut [f64]) {
-    let (s, c) = mode.phase_rad.sin_cos();
-    let w = std::f64::consts::TAU * mode.freq_hz / sample_rate_hz;
-    let r = (-mode.damping_per_s / sample_rate_hz).exp();
-    // e^{-dn}(sin(wn + θ)) by a rotating phasor.
-    let (mut re, mut im) = (c, s); // e^{iθ}
-    let (rc, rs) = (r * w.cos(), r * w.sin());
-    let a = scale * mode.amplitude;
-    for v in out.iter_mut() {
-        *v += a * im;
-        let nre = re * rc - im * rs;
-        im = re * rs + im * rc;
-        re = nre;
-        if re.abs() + im.abs() < 1e-18 {
-            break;
-        }
+    DampedMode {
+        amplitude: scale * mode.amplitude,
+        ..*mode
     }
+    .add_to(sample_rate_hz, out);
 }
 
 /// Amplitudes and phases of `poles` on `x` by linear least squares, jointly within groups of
