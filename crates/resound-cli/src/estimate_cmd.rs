@@ -6,11 +6,11 @@ use clap::{Args, Subcommand};
 use resound::core::{Material, ModalModel};
 use resound::io::library::{read_material, write_material};
 use resound::material::{
-    estimate_material, estimate_plot, library_material as get, list_materials, open_library,
-    read_library, start_count, EstimateMaterialParams, Origin,
+    estimate_material_from, estimate_plot, library_material as get, list_materials, open_library,
+    read_library, take_tick_count, EstimateMaterialParams, Origin, TakeInput,
 };
 use resound::object::{load_object, ObjectParams};
-use resound::recording::analyze_file;
+use resound::recording::{analyze_takes, TakeSelection};
 use resound::signal::AnalyzeParams;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -18,8 +18,18 @@ use std::path::{Path, PathBuf};
 /// Arguments of `estimate`.
 #[derive(Args, Debug)]
 pub struct EstimateArgs {
-    /// Recording of one strike of the object.
-    pub audio: PathBuf,
+    /// Recording(s) of the object struck at the hit point. Several files (microphones, takes)
+    /// are combined into one estimate: α, β, γ shared, each recording with its own σ.
+    #[arg(required = true, num_args = 1..)]
+    pub audio: Vec<PathBuf>,
+    /// Use every strike of each file as a recording of its own (strikes that give no modes are
+    /// skipped with a note).
+    #[arg(long, conflicts_with = "strike")]
+    pub every_strike: bool,
+    /// Use every channel of each file as a recording of its own (the microphones of a
+    /// multichannel recording).
+    #[arg(long, conflicts_with = "channel")]
+    pub every_channel: bool,
     /// The object: a closed surface or tet mesh, or a saved modal model (.rmodal).
     #[arg(long)]
     pub mesh: PathBuf,
@@ -123,6 +133,12 @@ struct Output<'a> {
     strike: usize,
     strike_reason: &'a str,
     warnings: &'a [String],
+    /// Each recording's part (several recordings).
+    #[serde(skip_serializing_if = "<[_]>::is_empty")]
+    takes: &'a [resound::material::TakeReport],
+    /// The recordings' own estimates' relative spread (several recordings).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    spread: Option<resound::material::TakeSpread>,
 }
 
 /// Runs `estimate`.
@@ -134,14 +150,16 @@ pub fn run(a: EstimateArgs) -> Result<()> {
         .chain(&a.plot)
         .map(|p| p.as_path())
         .collect();
-    crate::util::check_paths(&[&a.audio, &a.mesh], &outs)?;
+    let mut inputs: Vec<&Path> = a.audio.iter().map(|p| p.as_path()).collect();
+    inputs.push(&a.mesh);
+    crate::util::check_paths(&inputs, &outs)?;
     if let (Some(name), Some(lib)) = (&a.name, read_library(a.library.as_deref())?) {
         if lib.get(name)?.is_some() && !a.force {
             bail!("the library already has a material named {name:?}; pass --force to replace it");
         }
     }
     let name = a.name.clone().unwrap_or_else(|| {
-        a.audio
+        a.audio[0]
             .file_stem()
             .map_or("estimated".into(), |s| s.to_string_lossy().into_owned())
     });
@@ -150,40 +168,67 @@ pub fn run(a: EstimateArgs) -> Result<()> {
         strike: a.take.strike_index()?,
         ..AnalyzeParams::default()
     };
-    let (_, analysis) = analyze_file(&a.audio, &a.take.recording(), &ap)?;
-    warn_all(&analysis.warnings);
+    let select = TakeSelection {
+        every_strike: a.every_strike,
+        every_channel: a.every_channel,
+    };
+    let mut analysed = Vec::new();
+    for path in &a.audio {
+        let (takes, skipped) = analyze_takes(path, &a.take.recording(), &ap, select)?;
+        for s in skipped {
+            eprintln!("note: skipped {s}");
+        }
+        analysed.extend(takes);
+    }
+    for t in &analysed {
+        warn_all(&t.analysis.warnings);
+    }
+    let analysis = &analysed[0].analysis;
     let analysis_strike = (analysis.strike + 1, analysis.strike_reason.clone());
     let model = load_model(&a.mesh, a.scale, a.modes, &a.reference_material)?;
     let hit = snap(&model, query)?;
+    let takes: Vec<TakeInput<'_>> = analysed
+        .iter()
+        .map(|t| TakeInput {
+            analysis: &t.analysis,
+            model: &model,
+            hit: &hit,
+            label: &t.label,
+        })
+        .collect();
     let params = EstimateMaterialParams {
         name: name.clone(),
         residual: !a.no_residual,
-        recording_name: a.audio.display().to_string(),
+        recording_name: analysed
+            .iter()
+            .map(|t| t.label.as_str())
+            .collect::<Vec<_>>()
+            .join("; "),
         object_name: a.mesh.display().to_string(),
         allow_implausible: a.allow_implausible,
         ..Default::default()
     };
+    let unit = if takes.len() == 1 { "starts" } else { "fits" };
     let pb = bar(
         "estimate",
-        start_count(&model, &hit, &analysis, &params.estimate) as u64,
-        "starts",
+        take_tick_count(&takes, &params.estimate) as u64,
+        unit,
     );
     let tick = || pb.inc(1);
-    let (material, info) = estimate_material(&analysis, &model, &hit, &params, &tick)?;
+    let (material, info) = estimate_material_from(&takes, &params, &tick)?;
     pb.finish_and_clear();
     warn_all(&info.warnings);
     if let Some(o) = &a.output {
         write_material(o, &material)?;
     }
     if let Some(path) = &a.plot {
-        let title = a
-            .audio
+        let title = a.audio[0]
             .file_name()
             .map_or(String::new(), |s| s.to_string_lossy().into_owned());
         estimate_plot(
             path,
             &title,
-            &analysis,
+            analysis,
             &model,
             &hit,
             &info,
@@ -210,6 +255,8 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             strike: analysis_strike.0,
             strike_reason: &analysis_strike.1,
             warnings: &info.warnings,
+            takes: &info.takes,
+            spread: info.spread,
         });
     }
     println!(
@@ -230,7 +277,24 @@ pub fn run(a: EstimateArgs) -> Result<()> {
         pm(f.beta_sigma, "s"),
         pm(f.gamma_sigma, "m²/s²")
     );
-    println!("{}", analysis_strike.1);
+    if let Some(sp) = &info.spread {
+        println!(
+            "{} recordings combined; their own estimates spread by alpha {:.1} %, beta {:.1} %, gamma {:.1} % (relative SD; the combined value's standard error is that over √{})",
+            info.takes.len(),
+            100.0 * sp.alpha_rel_sd,
+            100.0 * sp.beta_rel_sd,
+            100.0 * sp.gamma_rel_sd,
+            info.takes.len()
+        );
+        for t in &info.takes {
+            println!(
+                "  {}: sigma {:.3e}, metric {:.3e} (alone: alpha {:.3e}, beta {:.3e}, gamma {:.3e}, metric {:.3e})",
+                t.label, t.sigma, t.metric, t.alone.alpha, t.alone.beta, t.alone.gamma, t.alone_metric
+            );
+        }
+    } else {
+        println!("{}", analysis_strike.1);
+    }
     Ok(())
 }
 

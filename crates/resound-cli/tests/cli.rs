@@ -1771,3 +1771,141 @@ mod regression {
         ));
     }
 }
+
+#[test]
+fn estimate_combines_microphones_and_files_into_one_material() {
+    use resound::core::{damped::synthesize, Material};
+    use resound::estimate::{forward_modes, RayleighParams};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "bar",
+            "--size",
+            "0.3,0.02,0.01",
+            "-o",
+            "bar.obj",
+        ],
+        d,
+    ));
+    ok(&resound(
+        &[
+            "modal",
+            "bar.obj",
+            "--material",
+            "steel",
+            "--modes",
+            "30",
+            "-o",
+            "bar.rmodal",
+        ],
+        d,
+    ));
+    let model = resound::io::model_file::load(&d.join("bar.rmodal")).unwrap();
+    let sp = model.locate_hit([0.1, 0.0, 0.005], 0.01).unwrap();
+    let steel = Material::preset("steel").unwrap();
+    let gamma0 = steel.youngs_modulus / steel.density;
+    let truth = RayleighParams {
+        alpha: 4.0,
+        beta: 4e-8,
+        gamma: 0.8 * gamma0,
+        sigma: 500.0,
+    };
+    let modes = forward_modes(
+        &model.eigenvalues,
+        &model.gains(&sp),
+        gamma0,
+        &truth,
+        22050.0,
+    );
+    let clean = synthesize(&modes, 44100.0, 44100);
+    // Two microphones at different gains, each with its own noise (≈ 50 dB below the peak),
+    // and a second, quieter take in another file.
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut mic = |gain: f64| -> Vec<f32> {
+        clean
+            .iter()
+            .map(|&v| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let u = (state >> 11) as f64 / (1u64 << 53) as f64;
+                (gain * v + 3e-4 * (u - 0.5)) as f32
+            })
+            .collect()
+    };
+    let (left, right, other) = (mic(1.0), mic(0.4), mic(0.7));
+    resound::io::write_wav_channels(
+        &d.join("stereo.wav"),
+        &[&left, &right],
+        44100,
+        resound::io::WavFormat::Float32,
+    )
+    .unwrap();
+    resound::io::write_wav(
+        &d.join("other.wav"),
+        &other,
+        44100,
+        resound::io::WavFormat::Float32,
+    )
+    .unwrap();
+    let out = ok(&resound(
+        &[
+            "estimate",
+            "stereo.wav",
+            "other.wav",
+            "--every-channel",
+            "--mesh",
+            "bar.rmodal",
+            "--hit",
+            "0.1,0,0.005",
+            "--no-residual",
+            "--json",
+        ],
+        d,
+    ));
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let takes = v["takes"].as_array().unwrap();
+    assert_eq!(takes.len(), 3, "{v}");
+    assert!(takes[1]["label"].as_str().unwrap().contains("channel 2"));
+    for (key, want) in [
+        ("alpha", truth.alpha),
+        ("beta", truth.beta),
+        ("gamma", truth.gamma),
+    ] {
+        let got = v[key].as_f64().unwrap();
+        assert!(
+            (got / want - 1.0).abs() < 0.03,
+            "{key}: {got} vs {want}: {v}"
+        );
+    }
+    // Each recording keeps its own amplitude scale: the microphones' gains come back.
+    let sigma: Vec<f64> = takes.iter().map(|t| t["sigma"].as_f64().unwrap()).collect();
+    for (k, gain) in [(1, 0.4), (2, 0.7)] {
+        let ratio = sigma[k] / sigma[0];
+        assert!(
+            (ratio / gain - 1.0).abs() < 0.03,
+            "σ ratio {ratio} vs {gain}: {v}"
+        );
+    }
+    assert!(v["spread"]["gamma_rel_sd"].as_f64().unwrap() < 0.01, "{v}");
+    assert!(v["fit"]["paired_modes"].as_u64().unwrap() >= 6, "{v}");
+    // One channel of a stereo file and every strike of it are not both a channel choice.
+    let out = resound(
+        &[
+            "estimate",
+            "stereo.wav",
+            "--every-channel",
+            "--channel",
+            "0",
+            "--mesh",
+            "bar.rmodal",
+            "--hit",
+            "0.1,0,0.005",
+        ],
+        d,
+    );
+    assert!(!out.status.success());
+}

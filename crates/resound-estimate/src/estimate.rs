@@ -94,6 +94,10 @@ pub enum EstimateError {
     /// No eigenvalue of the model can reach the recording's band.
     #[error("the modal model has no usable modes (need positive eigenvalues and non-zero gains)")]
     NoModelModes,
+    /// The recording's loudness image holds nothing above its floor: every estimate matches it
+    /// equally (metric 0).
+    #[error("the recording's loudness image holds nothing above its floor (too short or too quiet): any material matches it")]
+    Uninformative,
     /// Every start was invalid.
     #[error("no valid starting point: the dominant reference modes admit no Rayleigh circle with α, β ≥ 0")]
     NoStart,
@@ -223,11 +227,11 @@ fn synthesized_cost(modes: usize, samples: usize, grid: &ImageGrid) -> f64 {
 }
 
 /// Parameters ↔ the optimizer's unconstrained vector (α, ln β, ln γ, ln σ); α is folded to ≥ 0.
-fn to_vec(p: &RayleighParams) -> Vec<f64> {
+pub(crate) fn to_vec(p: &RayleighParams) -> Vec<f64> {
     vec![p.alpha, p.beta.max(1e-15).ln(), p.gamma.ln(), p.sigma.ln()]
 }
 
-fn from_vec(v: &[f64]) -> RayleighParams {
+pub(crate) fn from_vec(v: &[f64]) -> RayleighParams {
     RayleighParams {
         alpha: v[0].abs(),
         beta: v[1].exp(),

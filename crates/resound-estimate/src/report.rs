@@ -56,6 +56,36 @@ pub fn fit_report(
     params: &RayleighParams,
     duration_s: f64,
 ) -> FitReport {
+    pooled_fit_report(&[(recorded, estimated, duration_s)], params)
+}
+
+/// The report of one set of parameters against several recordings (each with the estimated
+/// modes of its own object and hit): modes are paired within each take and the pairs pooled,
+/// so γ, α and β rest on every take's modes. Shares and counts are over all takes.
+pub fn pooled_fit_report(
+    takes: &[(&[DampedMode], &[DampedMode], f64)],
+    params: &RayleighParams,
+) -> FitReport {
+    let mut pairs: Vec<(DampedMode, DampedMode, f64)> = Vec::new();
+    let mut total = 0.0;
+    let mut recorded_modes = 0;
+    for &(recorded, estimated, duration_s) in takes {
+        let (p, t) = pair_modes(recorded, estimated, duration_s);
+        pairs.extend(p);
+        total += t;
+        recorded_modes += recorded.len();
+    }
+    report_from_pairs(&pairs, total, recorded_modes, params)
+}
+
+/// Pairs each recorded mode with the nearest estimated one within [`PAIR_TOLERANCE`]
+/// (one-to-one, strongest recorded first): (recorded, estimated, perceptual weight), and the
+/// recording's total weight.
+fn pair_modes(
+    recorded: &[DampedMode],
+    estimated: &[DampedMode],
+    duration_s: f64,
+) -> (Vec<(DampedMode, DampedMode, f64)>, f64) {
     let weight = |m: &DampedMode| FeaturePoint::within(m, duration_s).weight.max(0.0);
     let mut order: Vec<usize> = (0..recorded.len()).collect();
     order.sort_by(|&a, &b| weight(&recorded[b]).total_cmp(&weight(&recorded[a])));
@@ -77,7 +107,15 @@ pub fn fit_report(
             pairs.push((*r, *e, weight(r)));
         }
     }
-    let total: f64 = recorded.iter().map(weight).sum();
+    (pairs, recorded.iter().map(weight).sum())
+}
+
+fn report_from_pairs(
+    pairs: &[(DampedMode, DampedMode, f64)],
+    total: f64,
+    recorded_modes: usize,
+    params: &RayleighParams,
+) -> FitReport {
     let paired: f64 = pairs.iter().map(|p| p.2).sum();
     let mut errs: Vec<f64> = pairs
         .iter()
@@ -115,7 +153,7 @@ pub fn fit_report(
     };
     FitReport {
         paired_modes: pairs.len(),
-        recorded_modes: recorded.len(),
+        recorded_modes,
         loudness_share: if total > 0.0 { paired / total } else { 0.0 },
         alpha_sigma,
         beta_sigma,

@@ -263,6 +263,51 @@ pub struct EstimateInfo {
     pub fit: resound_estimate::report::FitReport,
     /// Things the user should know (the object's lowest mode above every recorded one, …).
     pub warnings: Vec<String>,
+    /// Each recording's part when several were combined (empty for one).
+    pub takes: Vec<TakeReport>,
+    /// How much the recordings' own estimates differ (two or more recordings).
+    pub spread: Option<TakeSpread>,
+}
+
+/// One recording of a combined estimate ([`estimate_material_from`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct TakeReport {
+    /// The take's label (file, strike, channel).
+    pub label: String,
+    /// Its amplitude scale σ at the combined α, β, γ.
+    pub sigma: f64,
+    /// Its hybrid metric at the combined parameters.
+    pub metric: f64,
+    /// The take estimated alone.
+    pub alone: RayleighParams,
+    /// Its metric alone.
+    pub alone_metric: f64,
+}
+
+/// Relative standard deviations of the takes' own estimates: the measured variation between
+/// strikes, microphones or objects, and the standard error of the combined value (that over
+/// √takes).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct TakeSpread {
+    /// Of α (relative to the mean).
+    pub alpha_rel_sd: f64,
+    /// Of β.
+    pub beta_rel_sd: f64,
+    /// Of γ.
+    pub gamma_rel_sd: f64,
+}
+
+/// One recording of the material for [`estimate_material_from`].
+#[derive(Clone, Copy, Debug)]
+pub struct TakeInput<'a> {
+    /// The analysed strike.
+    pub analysis: &'a Analysis,
+    /// The recorded object.
+    pub model: &'a ModalModel,
+    /// Where it was struck.
+    pub hit: &'a Hit,
+    /// A label for reports.
+    pub label: &'a str,
 }
 
 /// The recorded object's side of the estimation: eigenvalues and gains at the hit.
@@ -288,6 +333,14 @@ pub fn start_count(
         .min(MAX_STARTS)
 }
 
+/// How many progress ticks [`estimate_material_from`] makes for `takes`.
+pub fn take_tick_count(takes: &[TakeInput<'_>], params: &EstimateParams) -> usize {
+    match takes {
+        [t] => start_count(t.model, t.hit, t.analysis, params),
+        _ => takes.len() + 1,
+    }
+}
+
 /// Estimates the material of the object `model`, struck at `hit`, from `analysis` (its modes
 /// and the very segment they were fitted to): α, β, γ, σ, then the §6.1 residual against the
 /// estimated modes. `tick` is called after each starting point.
@@ -302,20 +355,79 @@ pub fn estimate_material(
     params: &EstimateMaterialParams,
     tick: &(dyn Fn() + Sync),
 ) -> Result<(SoundMaterial, EstimateInfo)> {
-    if analysis.modes.is_empty() {
-        return Err(invalid(
-            "no modes in the recording: nothing to estimate from",
-        ));
+    let take = TakeInput {
+        analysis,
+        model,
+        hit,
+        label: &params.recording_name,
+    };
+    estimate_material_from(&[take], params, tick)
+}
+
+/// [`estimate_material`] from several recordings of one material — strikes of one file,
+/// microphones of one strike, other objects of the material: α, β, γ are shared, each take
+/// keeps its own σ ([`resound_estimate::joint`]). The material's σ, residual and provenance
+/// features are the first take's. `tick` is called after each take's own estimate and after
+/// the joint fit (after each starting point for one take).
+///
+/// # Errors
+/// As [`estimate_material`], for any take; no takes.
+pub fn estimate_material_from(
+    takes: &[TakeInput<'_>],
+    params: &EstimateMaterialParams,
+    tick: &(dyn Fn() + Sync),
+) -> Result<(SoundMaterial, EstimateInfo)> {
+    let Some(first) = takes.first() else {
+        return Err(invalid("no recordings to estimate from"));
+    };
+    for t in takes {
+        if t.analysis.modes.is_empty() {
+            return Err(invalid(format!(
+                "no modes in the recording{}: nothing to estimate from",
+                if t.label.is_empty() {
+                    String::new()
+                } else {
+                    format!(" {}", t.label)
+                }
+            )));
+        }
     }
     SoundMaterial::rayleigh(&params.name, 1.0, 1.0, 1.0, 1.0)
         .validate()
         .map_err(invalid)?;
     let t0 = std::time::Instant::now();
+    let (analysis, model, hit) = (first.analysis, first.model, first.hit);
     let fs = analysis.sample_rate_hz;
     let side = modal_side(model, hit);
     let seg = &analysis.segment;
-    let est = estimate(&side, seg, fs, &analysis.modes, &params.estimate, tick)?;
-    if !est.metric.is_finite() {
+    let sides: Vec<ModalSide> = takes.iter().map(|t| modal_side(t.model, t.hit)).collect();
+    let (est, joint) = if takes.len() == 1 {
+        let e = estimate(&side, seg, fs, &analysis.modes, &params.estimate, tick)?;
+        (e, None)
+    } else {
+        let inputs: Vec<resound_estimate::Take<'_>> = takes
+            .iter()
+            .zip(&sides)
+            .map(|(t, side)| resound_estimate::Take {
+                side,
+                signal: &t.analysis.segment,
+                sample_rate_hz: t.analysis.sample_rate_hz,
+                reference_modes: &t.analysis.modes,
+            })
+            .collect();
+        let j = resound_estimate::estimate_joint(&inputs, &params.estimate, tick)?;
+        let e = resound_estimate::Estimate {
+            params: j.params,
+            metric: j.metric,
+            starts: j.starts,
+            evaluations: j.evaluations,
+        };
+        (e, Some(j))
+    };
+    if !(est.metric.is_finite() && est.metric > 0.0) {
+        if est.metric == 0.0 {
+            return Err(resound_estimate::EstimateError::Uninformative.into());
+        }
         return Err(invalid(format!(
             "the estimate's metric is not finite ({}): the recording does not fit this object",
             est.metric
@@ -355,12 +467,91 @@ pub fn estimate_material(
         r
     });
     let mut warnings = implausible;
-    let fit = resound_estimate::report::fit_report(
-        &analysis.modes,
-        &estimated,
-        &p,
-        seg.len() as f64 / fs,
-    );
+    if let Some(j) = &joint {
+        for &k in &j.left_out {
+            warnings.push(format!(
+                "{} was left out: its loudness image holds nothing above its floor (too short or too quiet)",
+                takes[k].label
+            ));
+        }
+    }
+    let sigmas: Vec<f64> = joint
+        .as_ref()
+        .map_or_else(|| vec![p.sigma], |j| j.sigmas.clone());
+    let take_modes: Vec<Vec<DampedMode>> = sides
+        .iter()
+        .zip(takes)
+        .zip(&sigmas)
+        .map(|((side, t), &sigma)| {
+            resound_estimate::forward_modes(
+                &side.eigenvalues0,
+                &side.gains0,
+                side.gamma0,
+                &RayleighParams { sigma, ..p },
+                0.5 * t.analysis.sample_rate_hz,
+            )
+        })
+        .collect();
+    let pooled: Vec<(&[DampedMode], &[DampedMode], f64)> = takes
+        .iter()
+        .zip(&take_modes)
+        .map(|(t, e)| {
+            (
+                t.analysis.modes.as_slice(),
+                e.as_slice(),
+                t.analysis.segment.len() as f64 / t.analysis.sample_rate_hz,
+            )
+        })
+        .collect();
+    let fit = resound_estimate::report::pooled_fit_report(&pooled, &p);
+    let (take_reports, spread) = match &joint {
+        None => (Vec::new(), None),
+        Some(j) => {
+            let reports: Vec<TakeReport> = takes
+                .iter()
+                .zip(&j.individual)
+                .zip(j.sigmas.iter().zip(&j.take_metrics))
+                .map(|((t, alone), (&sigma, &metric))| TakeReport {
+                    label: t.label.to_string(),
+                    sigma,
+                    metric,
+                    alone: alone.params,
+                    alone_metric: alone.metric,
+                })
+                .collect();
+            let rel_sd = |f: &dyn Fn(&RayleighParams) -> f64| {
+                let x: Vec<f64> = j
+                    .individual
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, _)| !j.left_out.contains(k))
+                    .map(|(_, e)| f(&e.params))
+                    .collect();
+                if x.len() < 2 {
+                    return f64::NAN;
+                }
+                let mean = x.iter().sum::<f64>() / x.len() as f64;
+                let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (x.len() - 1) as f64;
+                if mean > 0.0 {
+                    var.sqrt() / mean
+                } else {
+                    f64::NAN
+                }
+            };
+            let spread = TakeSpread {
+                alpha_rel_sd: rel_sd(&|p| p.alpha),
+                beta_rel_sd: rel_sd(&|p| p.beta),
+                gamma_rel_sd: rel_sd(&|p| p.gamma),
+            };
+            if spread.gamma_rel_sd > 0.1 {
+                warnings.push(format!(
+                    "the recordings' own estimates of γ differ by {:.0} % (relative SD): they may not be of one material, or of the objects and hits given",
+                    100.0 * spread.gamma_rel_sd
+                ));
+            }
+            (reports, Some(spread))
+        }
+    };
     if p.alpha < 1e-6 {
         warnings.push(format!(
             "α = {:.1e} 1/s sits at its bound (0): no mass damping is seen; α is not determined by this recording",
@@ -402,11 +593,13 @@ pub fn estimate_material(
         metric: est.metric,
         starts: est.starts,
         evaluations: est.evaluations,
-        reference_modes: analysis.modes.len(),
+        reference_modes: takes.iter().map(|t| t.analysis.modes.len()).sum(),
         estimated_modes: estimated,
         elapsed_s: t0.elapsed().as_secs_f64(),
         fit,
         warnings,
+        takes: take_reports,
+        spread,
     };
     Ok((material, info))
 }

@@ -87,3 +87,109 @@ pub fn analyze_file(
     }
     Ok((rec, res))
 }
+
+/// Which takes of a file [`analyze_takes`] makes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TakeSelection {
+    /// Every strike the file holds, each a take (else the one `AnalyzeParams::strike` names, or
+    /// the loudest clean one).
+    pub every_strike: bool,
+    /// Every channel, each a take (else `RecordingParams::channel`, or the mix).
+    pub every_channel: bool,
+}
+
+/// One analysed take of a file.
+#[derive(Clone, Debug)]
+pub struct AnalysedTake {
+    /// "file", "file strike K", "file channel C", … (strikes and channels count from 1).
+    pub label: String,
+    /// Its analysis.
+    pub analysis: Analysis,
+}
+
+/// Decodes `path` and analyses the takes `select` names: every strike and/or every channel
+/// as separate recordings of one material (for [`crate::material::estimate_material_from`]).
+/// With `every_strike`, strikes that give no modes (cut short by the next, silent) are
+/// skipped and named in the second list.
+///
+/// # Errors
+/// As [`analyze_file`]; no usable take at all.
+pub fn analyze_takes(
+    path: &Path,
+    recording: &RecordingParams,
+    params: &AnalyzeParams,
+    select: TakeSelection,
+) -> Result<(Vec<AnalysedTake>, Vec<String>)> {
+    let clip = load_audio(path)?;
+    let channels: Vec<Option<usize>> = if select.every_channel {
+        (0..clip.channels.len()).map(Some).collect()
+    } else {
+        vec![recording.channel]
+    };
+    let name = path.display().to_string();
+    let mut takes = Vec::new();
+    let mut skipped = Vec::new();
+    for ch in channels {
+        let rp = RecordingParams {
+            channel: ch,
+            ..*recording
+        };
+        let mut samples = clip.mono(rp.channel, path)?;
+        let mut fs = clip.sample_rate_hz;
+        if let Some(to) = rp.resample_hz {
+            if !(8000..=192_000).contains(&to) {
+                return Err(invalid(format!(
+                    "resampling rate {to} Hz is outside 8000–192000 Hz"
+                )));
+            }
+            samples = resound_signal::resample::resample(&samples, fs, to)
+                .map_err(|e| invalid(e).at(path))?;
+            fs = to;
+        }
+        let ch_label = match (select.every_channel, ch) {
+            (true, Some(c)) => format!(" channel {}", c + 1),
+            _ => String::new(),
+        };
+        let run = |p: &AnalyzeParams| {
+            analyze(&samples, f64::from(fs), p)
+                .map_err(|e| Error::from(e).context(format!("cannot analyse {name}{ch_label}")))
+        };
+        let first = run(params)?;
+        if !select.every_strike {
+            if first.modes.is_empty() {
+                return Err(invalid(format!(
+                    "no modes found in {name}{ch_label} above the noise and within {} dB of the strongest peak",
+                    params.min_db
+                )));
+            }
+            takes.push(AnalysedTake {
+                label: format!("{name}{ch_label}"),
+                analysis: first,
+            });
+            continue;
+        }
+        for k in 0..first.strikes_s.len() {
+            let label = format!("{name}{ch_label} strike {}", k + 1);
+            let a = if k == first.strike {
+                Ok(first.clone())
+            } else {
+                run(&AnalyzeParams {
+                    strike: Some(k),
+                    ..params.clone()
+                })
+            };
+            match a {
+                Ok(a) if !a.modes.is_empty() => takes.push(AnalysedTake { label, analysis: a }),
+                Ok(_) => skipped.push(format!("{label}: no modes")),
+                Err(e) => skipped.push(format!("{label}: {e}")),
+            }
+        }
+    }
+    if takes.is_empty() {
+        return Err(invalid(format!(
+            "no strike of {name} gives modes to estimate from ({})",
+            skipped.join("; ")
+        )));
+    }
+    Ok((takes, skipped))
+}
