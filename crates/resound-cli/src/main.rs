@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod analyze_cmd;
+mod compare_cmd;
 mod demo_cmd;
 mod estimate_cmd;
 mod grains_cmd;
@@ -43,6 +44,8 @@ enum Command {
     Mesh(mesh_cmd::MeshCmd),
     /// Find the damped sinusoids (frequency, damping, amplitude, phase) of a recorded strike.
     Analyze(analyze_cmd::AnalyzeArgs),
+    /// How far apart two strikes sound: multi-resolution log-mel distance after onset alignment and energy normalisation.
+    Compare(compare_cmd::CompareArgs),
     /// Estimate a material (Rayleigh α, β, γ = E/ρ, σ) from a recorded strike, the object's mesh and the hit point.
     Estimate(estimate_cmd::EstimateArgs),
     /// List, show, import, export and remove materials in the material library (SQLite).
@@ -98,6 +101,7 @@ fn main() -> ExitCode {
         Command::Mesh(c) => mesh_cmd::run(c),
         Command::Model(a) => modal_cmd::run_info(a),
         Command::Analyze(a) => analyze_cmd::run(a),
+        Command::Compare(a) => compare_cmd::run(a),
         Command::Estimate(a) => estimate_cmd::run(a),
         Command::Materials(c) => estimate_cmd::run_materials(c),
         Command::Synth(a) => synth_cmd::run(a),

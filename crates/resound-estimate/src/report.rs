@@ -81,7 +81,7 @@ pub fn pooled_fit_report(
 /// Pairs each recorded mode with the nearest estimated one within [`PAIR_TOLERANCE`]
 /// (one-to-one, strongest recorded first): (recorded, estimated, perceptual weight), and the
 /// recording's total weight.
-fn pair_modes(
+pub(crate) fn pair_modes(
     recorded: &[DampedMode],
     estimated: &[DampedMode],
     duration_s: f64,

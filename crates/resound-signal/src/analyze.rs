@@ -71,10 +71,6 @@ pub struct Analysis {
     pub conditioning: crate::condition::Conditioning,
     /// Modes sorted by frequency; t = 0 at the onset.
     pub modes: Vec<DampedMode>,
-    /// The strike's transient, fitted with the modes but not one of them (decays of
-    /// [`TRANSIENT_DAMPING_PER_S`] or faster, fast decays in the top 5 % below Nyquist), by
-    /// frequency. It stays in the residual.
-    pub transients: Vec<DampedMode>,
     /// Standard deviation of the residual (robust), full scale = 1.
     pub noise_rms: f64,
     /// Samples analysed after the onset.
@@ -420,16 +416,7 @@ pub fn analyze(
             }
         }
     }
-    // The strike's transient (fast decays anywhere, a click at the top of the band) was fitted
-    // with the modes so as not to bias them; it is not a mode of the object.
-    let nyquist = 0.5 * sample_rate_hz;
-    let is_transient = |m: &DampedMode| {
-        m.damping_per_s >= TRANSIENT_DAMPING_PER_S
-            || (m.freq_hz > 0.95 * nyquist && m.damping_per_s > 300.0)
-    };
-    let (mut transients, mut modes): (Vec<DampedMode>, Vec<DampedMode>) =
-        seeds.iter().map(|s| s.mode).partition(|m| is_transient(m));
-    transients.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    let mut modes: Vec<DampedMode> = seeds.iter().map(|s| s.mode).collect();
     let level = |m: &DampedMode| crate::mode_level(m, crate::LEVEL_WINDOW_S);
     modes.sort_by(|a, b| level(b).total_cmp(&level(a)));
     modes.truncate(params.max_modes);
@@ -462,7 +449,6 @@ pub fn analyze(
         strike_reason,
         conditioning,
         modes,
-        transients,
         noise_rms: info.noise_rms,
         samples: seg.len(),
         segment: seg.to_vec(),
@@ -498,13 +484,14 @@ fn prune(
     noise_rms: f64,
     params: &AnalyzeParams,
 ) {
+    let nyquist = 0.5 * sample_rate_hz;
     seeds.retain(|s| {
         let m = &s.mode;
         // A mode pinned at the damping cap did not converge to a physical decay.
-        // Transients stay in the model while it is fitted (left out, a knock's energy would
-        // be absorbed by the modes beside it); `analyze` sets them apart at the end.
         crate::plausible(m.freq_hz, m.damping_per_s, sample_rate_hz)
-            && m.damping_per_s < 0.99 * crate::MAX_DAMPING_PER_S
+            && m.damping_per_s < TRANSIENT_DAMPING_PER_S
+            // A fast decay at the top of the band is the strike's click.
+            && !(m.freq_hz > 0.95 * nyquist && m.damping_per_s > 300.0)
             && m.amplitude > 0.0
             && m.amplitude.is_finite()
     });
@@ -605,7 +592,7 @@ fn subspace_pass(
         sample_rate_hz,
         noise_rms,
         &SubspaceParams::default(),
-        (crate::MIN_DAMPING_PER_S, 0.99 * crate::MAX_DAMPING_PER_S),
+        (crate::MIN_DAMPING_PER_S, TRANSIENT_DAMPING_PER_S),
         // Below 20 Hz a new pole is more likely a filter's or resampler's edge than a mode.
         crate::MIN_FREQ_HZ.max(20.0),
     );

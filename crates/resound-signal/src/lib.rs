@@ -15,6 +15,7 @@
 #![warn(missing_docs)]
 
 pub mod analyze;
+pub mod compare;
 pub mod condition;
 pub mod crb;
 pub mod extract;

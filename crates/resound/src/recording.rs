@@ -193,3 +193,45 @@ pub fn analyze_takes(
     }
     Ok((takes, skipped))
 }
+
+/// The log-mel distance ([`resound_signal::compare`]) between two recordings: `b` is
+/// resampled to `a`'s rate when they differ; `channel_a`/`channel_b` pick a channel (else the
+/// mix).
+///
+/// # Errors
+/// As [`load_recording`] and [`resound_signal::compare::log_mel_distance`].
+pub fn compare_files(
+    a: &Path,
+    channel_a: Option<usize>,
+    b: &Path,
+    channel_b: Option<usize>,
+    params: &resound_signal::compare::LogMelParams,
+) -> Result<resound_signal::compare::LogMelDistance> {
+    let ra = load_recording(
+        a,
+        &RecordingParams {
+            channel: channel_a,
+            resample_hz: None,
+        },
+    )?;
+    let rb = load_recording(
+        b,
+        &RecordingParams {
+            channel: channel_b,
+            resample_hz: Some(ra.sample_rate_hz),
+        },
+    )?;
+    resound_signal::compare::log_mel_distance(
+        &ra.samples,
+        &rb.samples,
+        f64::from(ra.sample_rate_hz),
+        params,
+    )
+    .map_err(|e| {
+        invalid(format!(
+            "cannot compare {} with {}: {e}",
+            a.display(),
+            b.display()
+        ))
+    })
+}
