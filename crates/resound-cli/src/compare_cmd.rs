@@ -22,6 +22,10 @@ pub struct CompareArgs {
     /// Longest stretch compared after the onsets, s.
     #[arg(long, default_value_t = 2.0)]
     pub max_duration_s: f64,
+    /// Band powers this far below the loudest band of either sound count as silence, dB (a
+    /// rendered sound has no room noise: set it near the recording's noise floor).
+    #[arg(long, default_value_t = 80.0)]
+    pub floor_db: f64,
     /// JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -32,8 +36,12 @@ pub fn run(a: CompareArgs) -> Result<()> {
     if !(a.max_duration_s > 0.05 && a.max_duration_s.is_finite()) {
         anyhow::bail!("--max-duration-s must be above 0.05 s");
     }
+    if !(a.floor_db > 0.0 && a.floor_db <= 200.0) {
+        anyhow::bail!("--floor-db must be in (0, 200]");
+    }
     let params = LogMelParams {
         max_duration_s: a.max_duration_s,
+        floor_db: a.floor_db,
         ..LogMelParams::default()
     };
     let d = compare_files(&a.a, a.channel_a, &a.b, a.channel_b, &params)?;
