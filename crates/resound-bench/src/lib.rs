@@ -1,6 +1,7 @@
 //! Resound's benchmarks, out of the numeric libraries: what `resound bench …` runs.
 //!
 //! - [`analysis`]: Ren 2013's analysis protocol and noisy mixtures against the Cramér–Rao bound.
+//! - [`live`]: the live backend on a simulated audio clock.
 //! - [`recovery`]: Ren's Fig. 9 material-recovery protocol.
 //! - [`throughput`]: resonator-bank throughput and residual-transfer latency.
 //! - [`run`]: the `bench` subcommands (modal, analyze, estimate, synth, scene, stats, grains)
@@ -10,6 +11,7 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
+pub mod live;
 pub mod recovery;
 pub mod run;
 pub mod throughput;

@@ -1909,3 +1909,36 @@ fn estimate_combines_microphones_and_files_into_one_material() {
     );
     assert!(!out.status.success());
 }
+
+#[test]
+fn bench_live_reports_callback_times_on_the_simulated_clock() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = ok(&resound(
+        &[
+            "bench",
+            "live",
+            "--json",
+            "--bodies",
+            "4",
+            "--seconds",
+            "0.5",
+            "--max-bodies",
+            "8",
+        ],
+        dir.path(),
+    ));
+    let v: Value = serde_json::from_str(&out).unwrap();
+    let main = &v["main"];
+    assert_eq!(main["bodies"], 4);
+    // 0.5 s of 256-sample blocks at 48 kHz; every body struck every 50 ms, one rubbing.
+    assert_eq!(main["clock"]["callbacks"], 94);
+    let events = main["events"].as_u64().unwrap();
+    assert!((4 * 10 + 94..=4 * 11 + 94).contains(&events), "{v}");
+    assert_eq!(main["dropped_events"], 0);
+    let (p50, p99) = (
+        main["clock"]["p50_share"].as_f64().unwrap(),
+        main["clock"]["p99_share"].as_f64().unwrap(),
+    );
+    assert!(p50 > 0.0 && p50 <= p99, "{v}");
+    assert!(v["search"].as_array().unwrap().len() >= 1);
+}

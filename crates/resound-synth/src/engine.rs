@@ -250,13 +250,19 @@ impl Engine {
     }
 
     /// Renders the next block, adding into `out` (any length; internally in blocks of
-    /// [`crate::MAX_BLOCK`]). Voices that have gone silent with no force pending are freed.
+    /// [`crate::MAX_BLOCK`]). Voices that have gone silent with no force pending are freed,
+    /// except attached ones ([`Engine::attach`]), which wait for their next excitation.
     pub fn process(&mut self, out: &mut [f32]) {
         let max_block = self.params.max_block;
         for block in out.chunks_mut(max_block) {
             let n = block.len();
             for v in self.voices.iter_mut().filter(|v| v.busy) {
                 let cap = v.force.len();
+                // A silent attached voice waits for its next excitation (its force clock runs on).
+                if v.pinned && v.pending == 0 && v.bank.is_silent() {
+                    v.head = (v.head + n) % cap;
+                    continue;
+                }
                 let x = &mut self.scratch[..n];
                 for (i, xi) in x.iter_mut().enumerate() {
                     let k = (v.head + i) % cap;
@@ -266,7 +272,7 @@ impl Engine {
                 v.head = (v.head + n) % cap;
                 v.pending = v.pending.saturating_sub(n);
                 v.bank.process(x, block);
-                if v.pending == 0 && v.bank.is_silent() {
+                if v.pending == 0 && v.bank.is_silent() && !v.pinned {
                     v.busy = false;
                 }
             }

@@ -18,6 +18,7 @@ pub mod bank;
 pub mod contact;
 pub mod engine;
 pub mod excitation;
+pub mod live;
 pub mod render;
 pub mod residual;
 pub mod scrape;
