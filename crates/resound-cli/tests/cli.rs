@@ -1940,5 +1940,5 @@ fn bench_live_reports_callback_times_on_the_simulated_clock() {
         main["clock"]["p99_share"].as_f64().unwrap(),
     );
     assert!(p50 > 0.0 && p50 <= p99, "{v}");
-    assert!(v["search"].as_array().unwrap().len() >= 1);
+    assert!(!v["search"].as_array().unwrap().is_empty());
 }
