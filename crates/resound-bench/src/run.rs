@@ -720,7 +720,14 @@ fn run_live(a: LiveBenchArgs) -> Result<()> {
             "first deadline miss at {n} bodies (doubling from {})",
             a.bodies
         ),
-        None => println!("no deadline miss up to {} bodies", a.max_bodies),
+        None if search.is_empty() => println!(
+            "no search for the first miss: --max-bodies {} is below --bodies {}",
+            a.max_bodies, a.bodies
+        ),
+        None => println!(
+            "no deadline miss up to {} bodies",
+            search.last().map_or(a.bodies, |r| r.bodies)
+        ),
     }
     println!(
         "contact-to-sound latency: at most one block + 1 sample ({:.2} ms) after the event is queued, plus the physics step that produced it",

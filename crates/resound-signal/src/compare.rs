@@ -115,10 +115,10 @@ pub fn log_mel_distance(
     }
     xa.truncate(n);
     xb.truncate(n);
-    for x in [&mut xa, &mut xb] {
+    for (which, x) in [(1, &mut xa), (2, &mut xb)] {
         let e = x.iter().map(|v| v * v).sum::<f64>().sqrt();
         if !(e > 0.0) {
-            return Err(CompareError::NoStrike(1));
+            return Err(CompareError::NoStrike(which));
         }
         x.iter_mut().for_each(|v| *v /= e);
     }

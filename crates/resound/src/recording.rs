@@ -36,6 +36,20 @@ pub struct RecordingParams {
 /// outside 8–192 kHz.
 pub fn load_recording(path: &Path, params: &RecordingParams) -> Result<Recording> {
     let clip = load_audio(path)?;
+    let (samples, sample_rate_hz) = take_channel(&clip, params, path)?;
+    Ok(Recording {
+        samples,
+        sample_rate_hz,
+        codec: clip.codec,
+    })
+}
+
+/// One channel (or the mix) of a decoded clip, resampled when asked: samples and rate.
+fn take_channel(
+    clip: &resound_io::AudioClip,
+    params: &RecordingParams,
+    path: &Path,
+) -> Result<(Vec<f64>, u32)> {
     let mut samples = clip.mono(params.channel, path)?;
     let mut fs = clip.sample_rate_hz;
     if let Some(to) = params.resample_hz {
@@ -48,11 +62,7 @@ pub fn load_recording(path: &Path, params: &RecordingParams) -> Result<Recording
             .map_err(|e| invalid(e).at(path))?;
         fs = to;
     }
-    Ok(Recording {
-        samples,
-        sample_rate_hz: fs,
-        codec: clip.codec,
-    })
+    Ok((samples, fs))
 }
 
 /// Decodes and analyses `path`: the recording and its modes. An analysis that finds no mode is
@@ -134,18 +144,7 @@ pub fn analyze_takes(
             channel: ch,
             ..*recording
         };
-        let mut samples = clip.mono(rp.channel, path)?;
-        let mut fs = clip.sample_rate_hz;
-        if let Some(to) = rp.resample_hz {
-            if !(8000..=192_000).contains(&to) {
-                return Err(invalid(format!(
-                    "resampling rate {to} Hz is outside 8000–192000 Hz"
-                )));
-            }
-            samples = resound_signal::resample::resample(&samples, fs, to)
-                .map_err(|e| invalid(e).at(path))?;
-            fs = to;
-        }
+        let (samples, fs) = take_channel(&clip, &rp, path)?;
         let ch_label = match (select.every_channel, ch) {
             (true, Some(c)) => format!(" channel {}", c + 1),
             _ => String::new(),
