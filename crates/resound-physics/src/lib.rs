@@ -39,9 +39,12 @@
 
 #![warn(missing_docs)]
 
+pub mod live;
 mod scene;
 
-pub use scene::{simulate, ContactKind, Event, Excitation, SceneOutput, SceneStats};
+pub use scene::{
+    simulate, ContactKind, Event, Excitation, SceneOutput, ScenePhysics, SceneSources, SceneStats,
+};
 
 use resound_synth::excitation::Elastic;
 

@@ -5,11 +5,11 @@ use rapier3d::parry::query::distance;
 use rapier3d::prelude::*;
 use resound_grains::player::GrainPlayer;
 use resound_grains::Contact;
-use resound_synth::bank::BankMode;
 use resound_synth::contact::{ContactForce, Profile, ROUGHNESS};
 use resound_synth::excitation::{ContactModel, Impact};
-use resound_synth::spatial::Spatializer;
-use resound_synth::{Engine, EngineParams, VoiceId};
+use resound_synth::scene_audio::{
+    scene_audio, AudioStats, Cue, CueSender, SceneAudioParams, Source,
+};
 use serde::Serialize;
 use std::collections::HashMap;
 
@@ -29,6 +29,8 @@ const MAX_SPIN_RAD_S: f64 = 1.0e4;
 const MAX_EXTENT_M: f64 = 1.0e4;
 /// Longest propagation delay, s (sources beyond 343 m are held there).
 const MAX_DELAY_S: f64 = 1.0;
+/// Longest impact pulse the tracker makes, samples (queue sizing).
+const FORCE_PULSE_SAMPLES: usize = 2048;
 /// Continuous contacts are logged at most this often, s.
 const LOG_INTERVAL_S: f64 = 0.05;
 
@@ -674,151 +676,246 @@ impl ContactTracker {
     }
 }
 
-/// Runs the scene. `progress` gets the simulated fraction now and then.
-pub fn simulate(
-    bodies: &[BodySpec],
-    params: &SceneParams,
-    progress: &dyn Fn(f64),
-) -> Result<SceneOutput, SceneError> {
-    let fs = params.sample_rate_hz;
-    if !(params.duration_s > 0.0 && params.duration_s <= 3600.0) {
-        return Err(SceneError::Setting(format!(
-            "duration must be in (0, 3600] s, got {}",
-            params.duration_s
-        )));
-    }
-    if !(8000.0..=192_000.0).contains(&fs) {
-        return Err(SceneError::Setting(format!(
-            "sample rate must be within 8000–192000 Hz, got {fs}"
-        )));
-    }
-    if !(30.0..=4000.0).contains(&params.steps_per_s) {
-        return Err(SceneError::Setting(format!(
-            "physics steps per second must be within 30–4000, got {}",
-            params.steps_per_s
-        )));
-    }
-    if !params
-        .listener
-        .iter()
-        .chain(&params.gravity)
-        .all(|v| v.is_finite())
-    {
-        return Err(SceneError::Setting(
-            "listener and gravity must be finite".into(),
-        ));
-    }
-    for b in bodies {
-        check_body(b)?;
-    }
-    let dt = 1.0 / params.steps_per_s;
-    let mut world = PhysicsWorld {
-        gravity: v3(params.gravity),
-        ..Default::default()
-    };
-    world.integration_parameters.dt = dt as f32;
-    let mut handles = Vec::with_capacity(bodies.len());
-    for (i, b) in bodies.iter().enumerate() {
-        let rb = if b.fixed {
-            RigidBodyBuilder::fixed()
-        } else {
-            RigidBodyBuilder::dynamic()
-                .linvel(v3(b.linvel))
-                .angvel(v3(b.angvel))
+/// The physics side of a scene: rapier's world, the contact tracker, and what it needs to
+/// turn contacts into [`Cue`]s for the audio side ([`resound_synth::scene_audio`]). Offline
+/// ([`simulate`]) and live ([`crate::live`]) drive it the same way: [`ScenePhysics::step`] once
+/// per physics step, the audio side rendering the step's samples.
+pub struct ScenePhysics {
+    world: PhysicsWorld,
+    bodies: Vec<BodySpec>,
+    handles: Vec<RigidBodyHandle>,
+    tracker: ContactTracker,
+    out: StepContacts,
+    grids: Vec<Option<VertexGrid>>,
+    moving: Vec<usize>,
+    grain_bodies: Vec<usize>,
+    step: usize,
+    dt: f64,
+    fs: f64,
+    total: usize,
+    steps: usize,
+    /// Added to every step's start sample (the live latency).
+    offset: u64,
+    /// Wall time of the most recent step (physics and contact handling), s.
+    last_step_s: f64,
+}
+
+/// The audio side's sources and settings for a scene's bodies (see [`ScenePhysics::new`]).
+pub struct SceneSources {
+    /// One per body, in the bodies' order (silent bodies too: no modes, no grains).
+    pub sources: Vec<Source>,
+    /// Settings for [`scene_audio`] (offline: no overload governor).
+    pub params: SceneAudioParams,
+}
+
+impl ScenePhysics {
+    /// Checks the scene, builds rapier's world, and hands the bodies' sound (modes, gain
+    /// tables, grain players) to the audio side. `block` is the longest stretch the audio side
+    /// will be asked to render at once (a device's block; 0 offline).
+    pub fn new(
+        bodies: &[BodySpec],
+        params: &SceneParams,
+        block: usize,
+    ) -> Result<(Self, SceneSources), SceneError> {
+        let fs = params.sample_rate_hz;
+        if !(params.duration_s > 0.0 && params.duration_s <= 3600.0) {
+            return Err(SceneError::Setting(format!(
+                "duration must be in (0, 3600] s, got {}",
+                params.duration_s
+            )));
         }
-        .translation(v3(b.position))
-        .rotation(v3(b.rotation));
-        let (h, _) = world.insert(rb, collider(b, i)?);
-        handles.push(h);
-    }
-    // One pinned engine voice per sounding body; the tracker's excitations go to it.
-    let max_block = ((fs / params.steps_per_s).ceil() as usize + 1).max(1);
-    let sounding = bodies.iter().filter(|b| b.sound.is_some()).count();
-    let mut engine = Engine::new(EngineParams {
-        sample_rate_hz: fs,
-        voices: sounding.max(1),
-        modes_per_voice: bodies
+        if !(8000.0..=192_000.0).contains(&fs) {
+            return Err(SceneError::Setting(format!(
+                "sample rate must be within 8000–192000 Hz, got {fs}"
+            )));
+        }
+        if !(30.0..=4000.0).contains(&params.steps_per_s) {
+            return Err(SceneError::Setting(format!(
+                "physics steps per second must be within 30–4000, got {}",
+                params.steps_per_s
+            )));
+        }
+        if !params
+            .listener
             .iter()
-            .filter_map(|b| b.sound.as_ref().map(|s| s.modes.len()))
-            .max()
-            .unwrap_or(0)
-            .max(1),
-        force_capacity: FORCE_RING,
-        cull_level: 1e-7,
-        max_block,
-    })?;
-    let mut voice_of: Vec<Option<VoiceId>> = Vec::with_capacity(bodies.len());
-    for (i, b) in bodies.iter().enumerate() {
-        voice_of.push(match &b.sound {
-            Some(s) => {
-                let modes: Vec<BankMode> = s
-                    .modes
-                    .iter()
-                    .enumerate()
-                    .map(|(j, &(f, d))| BankMode {
-                        freq_hz: f,
-                        damping_per_s: d,
-                        gain: f64::from(s.gains[j]),
-                    })
-                    .collect();
-                Some(engine.attach(&modes, i)?)
+            .chain(&params.gravity)
+            .all(|v| v.is_finite())
+        {
+            return Err(SceneError::Setting(
+                "listener and gravity must be finite".into(),
+            ));
+        }
+        if block > 1 << 16 {
+            return Err(SceneError::Setting(format!(
+                "audio blocks must be at most 65536 samples, got {block}"
+            )));
+        }
+        for b in bodies {
+            check_body(b)?;
+        }
+        let dt = 1.0 / params.steps_per_s;
+        let mut world = PhysicsWorld {
+            gravity: v3(params.gravity),
+            ..Default::default()
+        };
+        world.integration_parameters.dt = dt as f32;
+        let mut handles = Vec::with_capacity(bodies.len());
+        for (i, b) in bodies.iter().enumerate() {
+            let rb = if b.fixed {
+                RigidBodyBuilder::fixed()
+            } else {
+                RigidBodyBuilder::dynamic()
+                    .linvel(v3(b.linvel))
+                    .angvel(v3(b.angvel))
             }
-            None => None,
-        });
+            .translation(v3(b.position))
+            .rotation(v3(b.rotation));
+            let (h, _) = world.insert(rb, collider(b, i)?);
+            handles.push(h);
+        }
+        let mut sources = Vec::with_capacity(bodies.len());
+        let mut kept = Vec::with_capacity(bodies.len());
+        for (i, b) in bodies.iter().enumerate() {
+            let grains = match &b.grains {
+                Some(g) => Some(
+                    GrainPlayer::new(g.dictionary.clone(), fs, g.params.clone()).map_err(|e| {
+                        SceneError::Body {
+                            name: b.name.clone(),
+                            message: format!("grains: {e}"),
+                        }
+                    })?,
+                ),
+                None => None,
+            };
+            // The gain tables go to the audio side; the physics side keeps the vertices.
+            let mut body = b.clone();
+            let (modes, gains) = match body.sound.as_mut() {
+                Some(s) => (s.modes.clone(), std::mem::take(&mut s.gains)),
+                None => (Vec::new(), Vec::new()),
+            };
+            sources.push(Source {
+                modes,
+                gains,
+                grains,
+                position: arr(world.bodies[handles[i]].translation()),
+            });
+            kept.push(body);
+        }
+        let step_samples = (fs / params.steps_per_s).ceil() as usize + 1;
+        let max_block = step_samples.max(block).max(1);
+        let grids = kept
+            .iter()
+            .map(|b| b.sound.as_ref().map(|s| VertexGrid::new(&s.vertices)))
+            .collect();
+        let moving = (0..kept.len())
+            .filter(|&i| !kept[i].fixed && (kept[i].sound.is_some() || kept[i].grains.is_some()))
+            .collect();
+        let grain_bodies = (0..kept.len())
+            .filter(|&i| kept[i].grains.is_some())
+            .collect();
+        let tracker = ContactTracker {
+            active: HashMap::new(),
+            profile: Profile::fractal(1 << 17, 1.0, params.seed),
+            radii: kept.iter().map(|b| contact_radius(&b.shape)).collect(),
+            dt,
+            fs,
+            step_force: Vec::new(),
+        };
+        let total = (params.duration_s * fs).round() as usize;
+        let steps = (params.duration_s * params.steps_per_s).ceil() as usize;
+        let n_bodies = kept.len();
+        // Cues of one step: a position per body, two forces per contact, grain cues.
+        let cue_capacity = (64 * n_bodies + 4096).next_power_of_two();
+        let audio = SceneAudioParams {
+            sample_rate_hz: fs,
+            stereo: params.stereo,
+            listener: params.listener,
+            max_delay_s: MAX_DELAY_S,
+            max_block,
+            force_capacity: FORCE_RING,
+            cull_level: 1e-7,
+            cue_capacity,
+            sample_capacity: (16 * n_bodies * (step_samples + FORCE_PULSE_SAMPLES)).max(1 << 18),
+            governor: None,
+        };
+        Ok((
+            Self {
+                world,
+                bodies: kept,
+                handles,
+                tracker,
+                out: StepContacts {
+                    excitations: Vec::new(),
+                    events: Vec::new(),
+                    continuous: vec![None; n_bodies],
+                    grain_impacts: Vec::new(),
+                    stats: SceneStats::default(),
+                },
+                grids,
+                moving,
+                grain_bodies,
+                step: 0,
+                dt,
+                fs,
+                total,
+                steps,
+                offset: 0,
+                last_step_s: 0.0,
+            },
+            SceneSources {
+                sources,
+                params: audio,
+            },
+        ))
     }
-    let mut gains = vec![0.0f64; engine.params().modes_per_voice];
-    let grids: Vec<Option<VertexGrid>> = bodies
-        .iter()
-        .map(|b| b.sound.as_ref().map(|s| VertexGrid::new(&s.vertices)))
-        .collect();
-    let mut spatializer =
-        Spatializer::new(fs, params.stereo, params.listener, MAX_DELAY_S, max_block)?;
-    let mut players: Vec<Option<GrainPlayer>> = Vec::with_capacity(bodies.len());
-    for b in bodies {
-        players.push(match &b.grains {
-            Some(g) => Some(
-                GrainPlayer::new(g.dictionary.clone(), fs, g.params.clone()).map_err(|e| {
-                    SceneError::Body {
-                        name: b.name.clone(),
-                        message: format!("grains: {e}"),
-                    }
-                })?,
-            ),
-            None => None,
-        });
+
+    /// Delays every cue by `samples` (live: the scheduled contact-to-sound latency).
+    pub fn set_offset(&mut self, samples: u64) {
+        self.offset = samples;
     }
-    let mut tracker = ContactTracker {
-        active: HashMap::new(),
-        profile: Profile::fractal(1 << 17, 1.0, params.seed),
-        radii: bodies.iter().map(|b| contact_radius(&b.shape)).collect(),
-        dt,
-        fs,
-        step_force: Vec::new(),
-    };
-    let mut out = StepContacts {
-        excitations: Vec::new(),
-        events: Vec::new(),
-        continuous: vec![None; bodies.len()],
-        grain_impacts: Vec::new(),
-        stats: SceneStats::default(),
-    };
-    let total = (params.duration_s * fs).round() as usize;
-    let n_channels = if params.stereo { 2 } else { 1 };
-    let mut channels = vec![vec![0.0f32; total]; n_channels];
-    let steps = (params.duration_s * params.steps_per_s).ceil() as usize;
-    let mut buf = vec![0.0f32; max_block];
-    let mut last_progress = 0.0;
-    for step in 0..steps {
+
+    /// Physics steps of the scene's duration.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// Steps done.
+    pub fn steps_done(&self) -> usize {
+        self.step
+    }
+
+    /// Output samples of the scene's duration.
+    pub fn total_samples(&self) -> usize {
+        self.total
+    }
+
+    /// The output samples `[s0, s1)` step `k` covers (before the offset).
+    pub fn step_span(&self, k: usize) -> (usize, usize) {
+        let s0 = ((k as f64 * self.dt * self.fs).round() as usize).min(self.total);
+        let s1 = (((k + 1) as f64 * self.dt * self.fs).round() as usize).min(self.total);
+        (s0, s1)
+    }
+
+    /// Wall time of the most recent step, s.
+    pub fn last_step_s(&self) -> f64 {
+        self.last_step_s
+    }
+
+    /// Runs the next physics step and sends its cues (they take effect at the step's start
+    /// sample plus the offset). Returns the step's output samples `[s0, s1)` (no offset).
+    pub fn step(&mut self, tx: &mut CueSender) -> (usize, usize) {
+        let step = self.step;
+        let dt = self.dt;
         let t_start = step as f64 * dt;
-        let s0 = ((step as f64 * dt * fs).round() as usize).min(total);
-        let s1 = (((step + 1) as f64 * dt * fs).round() as usize).min(total);
+        let (s0, s1) = self.step_span(step);
         let n = s1 - s0;
         let tp = std::time::Instant::now();
         // Poses and velocities before the step.
-        let prev: Vec<(Pose, Vector, Vector, Vector)> = handles
+        let prev: Vec<(Pose, Vector, Vector, Vector)> = self
+            .handles
             .iter()
             .map(|&h| {
-                let rb = &world.bodies[h];
+                let rb = &self.world.bodies[h];
                 (
                     *rb.position(),
                     rb.linvel(),
@@ -827,65 +924,127 @@ pub fn simulate(
                 )
             })
             .collect();
-        world.step();
-        out.excitations.clear();
-        out.grain_impacts.clear();
-        tracker.step(&world, bodies, &handles, &prev, t_start, s0, n, &mut out);
-        for &(i, at_sample, impulse) in &out.grain_impacts {
-            if let Some(p) = players[i].as_mut() {
-                p.impact(at_sample, impulse);
+        self.world.step();
+        self.out.excitations.clear();
+        self.out.grain_impacts.clear();
+        self.tracker.step(
+            &self.world,
+            &self.bodies,
+            &self.handles,
+            &prev,
+            t_start,
+            s0,
+            n,
+            &mut self.out,
+        );
+        // The step's cues, in the order the offline renderer always applied them.
+        tx.step(s0 as u64 + self.offset);
+        for &i in &self.moving {
+            let p = self.world.bodies[self.handles[i]].translation();
+            tx.send(Cue::Place {
+                source: i as u32,
+                position: [p.x, p.y, p.z],
+            });
+        }
+        for &(i, at_sample, impulse) in &self.out.grain_impacts {
+            if self.bodies[i].grains.is_some() {
+                tx.send(Cue::GrainImpact {
+                    source: i as u32,
+                    delay: at_sample as u32,
+                    impulse_n_s: impulse,
+                });
             }
         }
-        out.stats.physics_s += tp.elapsed().as_secs_f64();
-        // The engine takes this step's excitations in the order the tracker made them, renders
-        // every sounding body, and the spatializer places each at the listener.
-        let ta = std::time::Instant::now();
-        for e in &out.excitations {
-            apply(
-                &mut engine,
-                &voice_of,
-                &grids,
-                bodies,
-                &world,
-                &handles,
-                &mut gains,
-                e,
-            );
-        }
-        let mut sounding = 0;
-        engine.process_voices(n, &mut |body, offset, block| {
-            sounding += 1;
-            let pos = arr(world.bodies[handles[body]].translation());
-            spatializer.place(block, offset, pos);
-        });
-        for (i, p) in players.iter_mut().enumerate() {
-            let Some(p) = p else { continue };
-            p.set_contact(out.continuous[i]);
-            if p.is_silent() {
+        for e in &self.out.excitations {
+            let Some(sound) = self.bodies[e.body].sound.as_ref() else {
                 continue;
-            }
-            let block = &mut buf[..n];
-            block.fill(0.0);
-            p.process(block);
-            sounding += 1;
-            let pos = arr(world.bodies[handles[i]].translation());
-            spatializer.place(block, 0, pos);
+            };
+            let local = arr(self.world.bodies[self.handles[e.body]]
+                .position()
+                .inverse_transform_point(v3(e.point)));
+            let k = self.grids[e.body]
+                .as_ref()
+                .map_or(0, |g| g.nearest(&sound.vertices, local));
+            tx.force(e.body, k, &e.force, e.scale, e.delay);
         }
-        let mut outs: Vec<&mut [f32]> = channels.iter_mut().map(|c| &mut c[s0..s1]).collect();
-        spatializer.render(&mut outs);
-        out.stats.max_voices = out.stats.max_voices.max(sounding);
-        out.stats.audio_s += ta.elapsed().as_secs_f64();
-        out.stats.steps += 1;
+        for &i in &self.grain_bodies {
+            tx.send(Cue::GrainContact {
+                source: i as u32,
+                contact: self.out.continuous[i],
+            });
+        }
+        self.last_step_s = tp.elapsed().as_secs_f64();
+        self.out.stats.physics_s += self.last_step_s;
+        self.out.stats.steps += 1;
+        self.step += 1;
+        (s0, s1)
+    }
+
+    /// A body's position now, m.
+    pub fn position(&self, body: usize) -> [f64; 3] {
+        arr(self.world.bodies[self.handles[body]].translation())
+    }
+
+    /// The event log so far.
+    pub fn events(&self) -> &[Event] {
+        &self.out.events
+    }
+
+    /// Figures so far (the audio side's are filled in by the driver).
+    pub fn stats(&self) -> &SceneStats {
+        &self.out.stats
+    }
+
+    /// The event log and figures, ending the run.
+    pub fn finish(self) -> (Vec<Event>, SceneStats) {
+        (self.out.events, self.out.stats)
+    }
+}
+
+/// Runs the scene offline: each physics step's cues go through the same queues and the same
+/// audio side ([`SceneAudio`]) a live run uses, and the step's samples are rendered right
+/// after. `progress` gets the simulated fraction now and then.
+pub fn simulate(
+    bodies: &[BodySpec],
+    params: &SceneParams,
+    progress: &dyn Fn(f64),
+) -> Result<SceneOutput, SceneError> {
+    let (mut physics, sources) = ScenePhysics::new(bodies, params, 0)?;
+    let (mut tx, mut audio) = scene_audio(&sources.params, sources.sources)?;
+    let total = physics.total_samples();
+    let mut channels = vec![vec![0.0f32; total]; audio.channels()];
+    let steps = physics.steps();
+    let mut audio_s = 0.0;
+    let mut last_progress = 0.0;
+    for step in 0..steps {
+        let (s0, s1) = physics.step(&mut tx);
+        let ta = std::time::Instant::now();
+        match channels.as_mut_slice() {
+            [a] => audio.process(&mut [&mut a[s0..s1]]),
+            [a, b] => audio.process(&mut [&mut a[s0..s1], &mut b[s0..s1]]),
+            _ => {}
+        }
+        audio_s += ta.elapsed().as_secs_f64();
         let frac = (step + 1) as f64 / steps as f64;
         if frac - last_progress >= 0.01 {
             progress(frac);
             last_progress = frac;
         }
     }
+    let dropped = AudioStats::get(&audio.stats().dropped);
+    if dropped > 0 {
+        return Err(SceneError::Setting(format!(
+            "{dropped} excitations did not fit the audio queues (too many contacts in one step)"
+        )));
+    }
+    let max_voices = AudioStats::get(&audio.stats().max_sounding) as usize;
+    let (events, mut stats) = physics.finish();
+    stats.audio_s = audio_s;
+    stats.max_voices = max_voices;
     Ok(SceneOutput {
         channels,
-        events: out.events,
-        stats: out.stats,
+        events,
+        stats,
     })
 }
 
@@ -949,35 +1108,6 @@ fn hertz_pulse(
         0.0
     };
     Some((pulse, scale, first.max(0.0) as usize))
-}
-
-/// Hands one excitation to the engine: the body's gains at the surface vertex nearest the
-/// contact point (in the body's frame after the step), then the force.
-fn apply(
-    engine: &mut Engine,
-    voice_of: &[Option<VoiceId>],
-    grids: &[Option<VertexGrid>],
-    bodies: &[BodySpec],
-    world: &PhysicsWorld,
-    handles: &[RigidBodyHandle],
-    gains: &mut [f64],
-    e: &Excitation,
-) {
-    let (Some(id), Some(sound)) = (voice_of[e.body], bodies[e.body].sound.as_ref()) else {
-        return;
-    };
-    let local = arr(world.bodies[handles[e.body]]
-        .position()
-        .inverse_transform_point(v3(e.point)));
-    let k = grids[e.body]
-        .as_ref()
-        .map_or(0, |g| g.nearest(&sound.vertices, local));
-    let m = sound.modes.len();
-    for (j, g) in gains[..m].iter_mut().enumerate() {
-        *g = f64::from(sound.gains[k * m + j]);
-    }
-    engine.set_gains(id, &gains[..m]);
-    engine.excite_scaled(id, &e.force, e.scale, e.delay);
 }
 
 #[cfg(test)]

@@ -226,6 +226,19 @@ impl ModalBank {
             .sum()
     }
 
+    /// Changes the level (output amplitude) below which modes with no force arriving are
+    /// culled: raised under overload, modes are dropped by audibility. Never allocates.
+    pub fn set_cull_level(&mut self, cull_level: f32) {
+        if cull_level >= 0.0 && cull_level.is_finite() {
+            self.cull_level = cull_level;
+        }
+    }
+
+    /// The level below which modes are culled.
+    pub fn cull_level(&self) -> f32 {
+        self.cull_level
+    }
+
     /// Silences every mode.
     pub fn reset(&mut self) {
         for c in &mut self.chunks {

@@ -33,6 +33,8 @@ struct Voice {
     pinned: bool,
     /// The caller's tag ([`Engine::process_voices`] hands it back with each block).
     tag: usize,
+    /// Fading out over the next block (stolen by the voice budget), then silenced.
+    fading: bool,
 }
 
 /// Settings of [`Engine::new`].
@@ -74,6 +76,12 @@ pub struct Engine {
     out: Vec<f32>,
     generation: u64,
     params: EngineParams,
+    /// Most voices rendered at once ([`Engine::set_voice_budget`]).
+    budget: usize,
+    /// Scratch for ranking voices by level (allocated up front).
+    rank: Vec<(f32, usize)>,
+    /// Voices faded out by the budget so far.
+    steals: u64,
 }
 
 impl Engine {
@@ -111,6 +119,7 @@ impl Engine {
                 busy: false,
                 pinned: false,
                 tag: 0,
+                fading: false,
             });
         }
         Ok(Self {
@@ -118,6 +127,9 @@ impl Engine {
             scratch: vec![0.0; params.max_block],
             out: vec![0.0; params.max_block],
             generation: 0,
+            budget: usize::MAX,
+            rank: Vec::with_capacity(params.voices),
+            steals: 0,
             params,
         })
     }
@@ -125,6 +137,59 @@ impl Engine {
     /// Settings.
     pub fn params(&self) -> &EngineParams {
         &self.params
+    }
+
+    /// Renders at most `budget` voices at once (overload): when more sound, the quietest
+    /// (current level × importance) fade out over one block and fall silent, attached ones
+    /// included (they wake at their next excitation). `usize::MAX`: no budget. Never allocates.
+    pub fn set_voice_budget(&mut self, budget: usize) {
+        self.budget = budget.max(1);
+    }
+
+    /// The voice budget.
+    pub fn voice_budget(&self) -> usize {
+        self.budget
+    }
+
+    /// Culls modes quieter than `level` (output amplitude) in every voice from now on.
+    pub fn set_cull_level(&mut self, level: f32) {
+        for v in &mut self.voices {
+            v.bank.set_cull_level(level);
+        }
+    }
+
+    /// Voices faded out by the budget so far.
+    pub fn steals(&self) -> u64 {
+        self.steals
+    }
+
+    /// Voices currently rendering (busy and not silent).
+    pub fn sounding_voices(&self) -> usize {
+        self.voices
+            .iter()
+            .filter(|v| v.busy && !(v.pending == 0 && v.bank.is_silent()))
+            .count()
+    }
+
+    /// Marks the quietest sounding voices beyond the budget for a fade-out.
+    fn enforce_budget(&mut self) {
+        self.rank.clear();
+        for (i, v) in self.voices.iter().enumerate() {
+            if v.busy && !v.fading && !(v.pending == 0 && v.bank.is_silent()) {
+                self.rank.push((v.bank.level() * v.importance, i));
+            }
+        }
+        if self.rank.len() <= self.budget {
+            return;
+        }
+        let cut = self.rank.len() - self.budget;
+        // The `cut` quietest go (select_nth_unstable_by does not allocate).
+        self.rank
+            .select_nth_unstable_by(cut - 1, |a, b| a.0.total_cmp(&b.0));
+        for &(_, i) in &self.rank[..cut] {
+            self.voices[i].fading = true;
+            self.steals += 1;
+        }
     }
 
     /// Voices currently sounding.
@@ -189,6 +254,7 @@ impl Engine {
         v.generation = self.generation;
         v.busy = true;
         v.pinned = pinned;
+        v.fading = false;
         v.tag = tag;
         Ok(VoiceId {
             slot,
@@ -290,6 +356,9 @@ impl Engine {
         let mut offset = 0;
         while offset < n {
             let len = (n - offset).min(max_block);
+            if self.budget < self.voices.len() {
+                self.enforce_budget();
+            }
             for v in self.voices.iter_mut().filter(|v| v.busy) {
                 let cap = v.force.len();
                 if v.pending == 0 && v.bank.is_silent() {
@@ -310,6 +379,24 @@ impl Engine {
                 let out = &mut self.out[..len];
                 out.fill(0.0);
                 v.bank.process(x, out);
+                if v.fading {
+                    // Stolen: a linear fade over this block (no step), then silence.
+                    let step = 1.0 / len as f32;
+                    for (i, o) in out.iter_mut().enumerate() {
+                        *o *= 1.0 - (i + 1) as f32 * step;
+                    }
+                    v.bank.reset();
+                    for k in 0..v.pending.min(cap) {
+                        v.force[(v.head + k) % cap] = 0.0;
+                    }
+                    v.pending = 0;
+                    v.fading = false;
+                    if !v.pinned {
+                        v.busy = false;
+                    }
+                    each(v.tag, offset, out);
+                    continue;
+                }
                 if v.bank.is_silent() {
                     if !v.pinned && v.pending == 0 {
                         v.busy = false;

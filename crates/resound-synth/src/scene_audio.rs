@@ -1,0 +1,583 @@
+//! The audio side of a scene, offline and live alike: sounding bodies as attached voices of
+//! one [`Engine`], recorded-grain players, and the [`Spatializer`], fed by the physics side
+//! through two lock-free queues.
+//!
+//! - [`scene_audio`] builds a [`SceneAudio`] (the backend: an audio callback or the offline
+//!   renderer) and a [`CueSender`] (the physics thread or game loop). Everything is allocated
+//!   there; [`SceneAudio::process`] never allocates, locks or blocks (tested with
+//!   `assert_no_alloc`).
+//! - The physics side sends each step's [`Cue`]s after a [`Cue::Step`] that says at which
+//!   sample of the output they take effect: body positions, forces (their samples go through a
+//!   second queue of `f32`, so no cue owns memory the callback would have to free), grain
+//!   impacts and continuous contacts. The backend renders up to each step's start, applies its
+//!   cues, and renders on, so the output does not depend on how the device cuts it into
+//!   blocks — only voice culling and the voice budget act on rendered blocks.
+//! - A step whose cues arrive after its start sample (the physics fell behind) is applied at
+//!   once, its forces shifted by the lateness, and counted in [`AudioStats::late_steps`].
+//! - Overload ([`Governor`], live only): the callback times itself against its block's
+//!   deadline; above a share of it, it first raises the modes' cull level tenfold (modes are
+//!   dropped by audibility), then halves the voices it renders (the quietest fade out over a
+//!   block: voice stealing by loudness); well below it, it steps back.
+
+use crate::bank::BankMode;
+use crate::engine::{Engine, EngineParams, VoiceId};
+use crate::spatial::Spatializer;
+use crate::SynthError;
+use resound_grains::player::GrainPlayer;
+use resound_grains::Contact;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// One sounding body.
+#[derive(Debug)]
+pub struct Source {
+    /// Damped frequency (Hz) and decay rate (1/s) of each mode (may be empty: grains only).
+    pub modes: Vec<(f64, f64)>,
+    /// Gain (output amplitude per N·s) of each mode at each surface vertex, vertex-major.
+    pub gains: Vec<f32>,
+    /// A recorded-grain player, besides or instead of the modes.
+    pub grains: Option<GrainPlayer>,
+    /// Where it starts, m.
+    pub position: [f64; 3],
+}
+
+/// Settings of [`scene_audio`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneAudioParams {
+    /// Sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Two channels (left/right along x) instead of one.
+    pub stereo: bool,
+    /// Listener position, m.
+    pub listener: [f64; 3],
+    /// Longest propagation delay, s.
+    pub max_delay_s: f64,
+    /// Longest stretch rendered at once, samples (at least a physics step and a device block).
+    pub max_block: usize,
+    /// Force ring per voice, samples (the longest force scheduled ahead).
+    pub force_capacity: usize,
+    /// Modes quieter than this (output amplitude) with no force coming are culled.
+    pub cull_level: f32,
+    /// Cues the queue holds.
+    pub cue_capacity: usize,
+    /// Force samples the queue holds.
+    pub sample_capacity: usize,
+    /// Overload handling (live); `None` renders everything, whatever it costs (offline).
+    pub governor: Option<Governor>,
+}
+
+/// When the live callback degrades (shares of its block's deadline).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Governor {
+    /// Above this share a callback steps up the degradation.
+    pub high: f64,
+    /// Below this share for `calm_callbacks` callbacks in a row it steps back.
+    pub low: f64,
+    /// See `low`.
+    pub calm_callbacks: u32,
+}
+
+impl Default for Governor {
+    fn default() -> Self {
+        Self {
+            high: 0.7,
+            low: 0.35,
+            calm_callbacks: 200,
+        }
+    }
+}
+
+/// What the physics side tells the audio side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Cue {
+    /// The cues that follow (up to the next `Step`) take effect at output sample `start`.
+    Step {
+        /// Output sample.
+        start: u64,
+    },
+    /// A body is now here (m).
+    Place {
+        /// Source index (as given to [`scene_audio`]).
+        source: u32,
+        /// Position, m.
+        position: [f32; 3],
+    },
+    /// `len` force samples (N per sample, times `scale`; they are in the sample queue) on a
+    /// body at surface vertex `vertex`, from `delay` samples after the step's start.
+    Force {
+        /// Source index.
+        source: u32,
+        /// Surface vertex whose gains apply.
+        vertex: u32,
+        /// Samples in the sample queue.
+        len: u32,
+        /// Samples after the step's start.
+        delay: u32,
+        /// Scale of the samples.
+        scale: f64,
+    },
+    /// An impact for a body's grain player, its force peak `delay` samples after the step's
+    /// start.
+    GrainImpact {
+        /// Source index.
+        source: u32,
+        /// Samples after the step's start.
+        delay: u32,
+        /// Impulse, N·s.
+        impulse_n_s: f64,
+    },
+    /// A body's continuous contact from the step on: kind, power (W), speed (m/s).
+    GrainContact {
+        /// Source index.
+        source: u32,
+        /// The contact, or none.
+        contact: Option<(Contact, f64, f64)>,
+    },
+}
+
+/// Counters shared by both sides (relaxed atomics: statistics only).
+#[derive(Debug, Default)]
+pub struct AudioStats {
+    /// Calls of [`SceneAudio::process`].
+    pub callbacks: AtomicU64,
+    /// Samples rendered (the audio clock).
+    pub rendered: AtomicU64,
+    /// Cues applied.
+    pub cues: AtomicU64,
+    /// Cues the queues had no room for (the sender counts them).
+    pub dropped: AtomicU64,
+    /// Cues naming no source, or forces whose samples were missing.
+    pub rejected: AtomicU64,
+    /// Steps whose cues came after their start sample.
+    pub late_steps: AtomicU64,
+    /// Callbacks that took longer than their block lasts (the clock or driver counts them).
+    pub xruns: AtomicU64,
+    /// Most voices rendering at once.
+    pub max_sounding: AtomicU64,
+    /// Voices faded out by the overload budget.
+    pub steals: AtomicU64,
+    /// Current degradation level (0: none).
+    pub degradation: AtomicU64,
+}
+
+impl AudioStats {
+    fn bump(c: &AtomicU64) {
+        c.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Reads a counter.
+    pub fn get(c: &AtomicU64) -> u64 {
+        c.load(Ordering::Relaxed)
+    }
+}
+
+/// The physics side's end of the queues.
+pub struct CueSender {
+    cues: rtrb::Producer<Cue>,
+    samples: rtrb::Producer<f32>,
+    stats: Arc<AudioStats>,
+}
+
+impl CueSender {
+    /// Sends a cue; false (counted as dropped) when the queue is full. Never blocks.
+    pub fn send(&mut self, cue: Cue) -> bool {
+        if self.cues.push(cue).is_ok() {
+            true
+        } else {
+            AudioStats::bump(&self.stats.dropped);
+            false
+        }
+    }
+
+    /// Sends a step's start.
+    pub fn step(&mut self, start: u64) -> bool {
+        self.send(Cue::Step { start })
+    }
+
+    /// Sends a force (its samples first, then its cue); false (dropped) when either queue is
+    /// full.
+    pub fn force(
+        &mut self,
+        source: usize,
+        vertex: usize,
+        force: &[f32],
+        scale: f64,
+        delay: usize,
+    ) -> bool {
+        if self.cues.slots() == 0 || self.samples.slots() < force.len() {
+            AudioStats::bump(&self.stats.dropped);
+            return false;
+        }
+        match self.samples.write_chunk_uninit(force.len()) {
+            Ok(chunk) => {
+                chunk.fill_from_iter(force.iter().copied());
+            }
+            Err(_) => {
+                AudioStats::bump(&self.stats.dropped);
+                return false;
+            }
+        }
+        self.send(Cue::Force {
+            source: source as u32,
+            vertex: vertex as u32,
+            len: force.len() as u32,
+            delay: delay as u32,
+            scale,
+        })
+    }
+
+    /// Samples the backend has rendered (its clock).
+    pub fn rendered(&self) -> u64 {
+        AudioStats::get(&self.stats.rendered)
+    }
+
+    /// Free cue slots.
+    pub fn free_cues(&self) -> usize {
+        self.cues.slots()
+    }
+
+    /// The shared counters.
+    pub fn stats(&self) -> &Arc<AudioStats> {
+        &self.stats
+    }
+}
+
+/// The audio side: renders the scene's sound block by block (see the module docs).
+pub struct SceneAudio {
+    engine: Engine,
+    voices: Vec<Option<VoiceId>>,
+    tables: Vec<Vec<f32>>,
+    modes: Vec<usize>,
+    gains: Vec<f64>,
+    players: Vec<Option<GrainPlayer>>,
+    positions: Vec<[f64; 3]>,
+    spatializer: Spatializer,
+    cues: rtrb::Consumer<Cue>,
+    samples: rtrb::Consumer<f32>,
+    stats: Arc<AudioStats>,
+    scratch: Vec<f32>,
+    max_block: usize,
+    sample_rate_hz: f64,
+    clock: u64,
+    /// Lateness of the current step's cues, samples.
+    late: u64,
+    governor: Option<Governor>,
+    level: u32,
+    calm: u32,
+    base_cull: f32,
+}
+
+/// Builds the audio side for `sources` and the physics side's sender.
+///
+/// # Errors
+/// [`SynthError::Parameter`] for unusable settings or a source whose gain table does not
+/// match its modes.
+pub fn scene_audio(
+    params: &SceneAudioParams,
+    sources: Vec<Source>,
+) -> Result<(CueSender, SceneAudio), SynthError> {
+    if sources.len() > u32::MAX as usize || params.cue_capacity == 0 {
+        return Err(SynthError::Parameter(
+            "scene audio: too many sources or no cue queue".into(),
+        ));
+    }
+    let modal = sources.iter().filter(|s| !s.modes.is_empty()).count();
+    let mut engine = Engine::new(EngineParams {
+        sample_rate_hz: params.sample_rate_hz,
+        voices: modal.max(1),
+        modes_per_voice: sources
+            .iter()
+            .map(|s| s.modes.len())
+            .max()
+            .unwrap_or(0)
+            .max(1),
+        force_capacity: params.force_capacity,
+        cull_level: params.cull_level,
+        max_block: params.max_block,
+    })?;
+    let mut voices = Vec::with_capacity(sources.len());
+    let mut tables = Vec::with_capacity(sources.len());
+    let mut modes = Vec::with_capacity(sources.len());
+    let mut players = Vec::with_capacity(sources.len());
+    let mut positions = Vec::with_capacity(sources.len());
+    for (i, s) in sources.into_iter().enumerate() {
+        let m = s.modes.len();
+        if m > 0 && (s.gains.is_empty() || s.gains.len() % m != 0) {
+            return Err(SynthError::Parameter(format!(
+                "source {i}: {} gains are not a whole number of vertices × {m} modes",
+                s.gains.len()
+            )));
+        }
+        voices.push(if m > 0 {
+            let bank: Vec<BankMode> = s
+                .modes
+                .iter()
+                .enumerate()
+                .map(|(j, &(f, d))| BankMode {
+                    freq_hz: f,
+                    damping_per_s: d,
+                    gain: f64::from(s.gains[j]),
+                })
+                .collect();
+            Some(engine.attach(&bank, i)?)
+        } else {
+            None
+        });
+        modes.push(m);
+        tables.push(s.gains);
+        players.push(s.grains);
+        positions.push(s.position);
+    }
+    let spatializer = Spatializer::new(
+        params.sample_rate_hz,
+        params.stereo,
+        params.listener,
+        params.max_delay_s,
+        params.max_block,
+    )?;
+    let (ctx, crx) = rtrb::RingBuffer::new(params.cue_capacity);
+    let (stx, srx) = rtrb::RingBuffer::new(params.sample_capacity.max(1));
+    let stats = Arc::new(AudioStats::default());
+    let gains = vec![0.0; engine.params().modes_per_voice];
+    Ok((
+        CueSender {
+            cues: ctx,
+            samples: stx,
+            stats: Arc::clone(&stats),
+        },
+        SceneAudio {
+            engine,
+            voices,
+            tables,
+            modes,
+            gains,
+            players,
+            positions,
+            spatializer,
+            cues: crx,
+            samples: srx,
+            stats,
+            scratch: vec![0.0; params.max_block],
+            max_block: params.max_block,
+            sample_rate_hz: params.sample_rate_hz,
+            clock: 0,
+            late: 0,
+            governor: params.governor,
+            level: 0,
+            calm: 0,
+            base_cull: params.cull_level,
+        },
+    ))
+}
+
+impl SceneAudio {
+    /// Output channels (1 or 2).
+    pub fn channels(&self) -> usize {
+        self.spatializer.channels()
+    }
+
+    /// Samples rendered so far.
+    pub fn clock(&self) -> u64 {
+        self.clock
+    }
+
+    /// The shared counters.
+    pub fn stats(&self) -> &Arc<AudioStats> {
+        &self.stats
+    }
+
+    /// The engine (to inspect voices).
+    pub fn engine(&self) -> &Engine {
+        &self.engine
+    }
+
+    /// Renders the next `out[0].len()` samples, adding them into `out` (one slice per
+    /// channel, all of one length). Never allocates, locks or blocks.
+    pub fn process(&mut self, out: &mut [&mut [f32]]) {
+        let t0 = self.governor.map(|_| Instant::now());
+        let n = out.first().map_or(0, |o| o.len());
+        let mut done = 0;
+        while done < n {
+            let pos = self.clock;
+            self.apply_due(pos);
+            let mut end = pos + (n - done).min(self.max_block) as u64;
+            if let Ok(&Cue::Step { start }) = self.cues.peek() {
+                if start > pos && start < end {
+                    end = start;
+                }
+            }
+            let len = (end - pos) as usize;
+            self.render(out, done, len);
+            done += len;
+            self.clock = end;
+        }
+        self.stats.rendered.store(self.clock, Ordering::Relaxed);
+        AudioStats::bump(&self.stats.callbacks);
+        if let (Some(g), Some(t0)) = (self.governor, t0) {
+            let share = t0.elapsed().as_secs_f64() / (n.max(1) as f64 / self.sample_rate_hz);
+            self.govern(g, share);
+        }
+    }
+
+    /// Applies every cue due at output sample `pos`.
+    fn apply_due(&mut self, pos: u64) {
+        loop {
+            let cue = match self.cues.peek() {
+                Ok(&Cue::Step { start }) if start > pos => return,
+                Ok(&c) => c,
+                Err(_) => return,
+            };
+            let _ = self.cues.pop();
+            match cue {
+                Cue::Step { start } => {
+                    self.late = pos - start;
+                    if self.late > 0 {
+                        AudioStats::bump(&self.stats.late_steps);
+                    }
+                }
+                c => {
+                    let ok = self.apply(c);
+                    AudioStats::bump(if ok {
+                        &self.stats.cues
+                    } else {
+                        &self.stats.rejected
+                    });
+                }
+            }
+        }
+    }
+
+    fn apply(&mut self, cue: Cue) -> bool {
+        let late = self.late as usize;
+        match cue {
+            Cue::Step { .. } => true,
+            Cue::Place { source, position } => match self.positions.get_mut(source as usize) {
+                Some(p) => {
+                    *p = position.map(f64::from);
+                    true
+                }
+                None => false,
+            },
+            Cue::Force {
+                source,
+                vertex,
+                len,
+                delay,
+                scale,
+            } => {
+                let len = len as usize;
+                let Ok(chunk) = self.samples.read_chunk(len) else {
+                    return false;
+                };
+                let i = source as usize;
+                let id = self.voices.get(i).copied().flatten();
+                let ok = match id {
+                    Some(id) => {
+                        let m = self.modes[i];
+                        let table = &self.tables[i];
+                        let k = (vertex as usize).min(table.len() / m - 1);
+                        for (g, &t) in self.gains[..m].iter_mut().zip(&table[k * m..(k + 1) * m]) {
+                            *g = f64::from(t);
+                        }
+                        self.engine.set_gains(id, &self.gains[..m]);
+                        let (a, b) = chunk.as_slices();
+                        let d = (delay as usize).saturating_sub(late);
+                        self.engine.excite_scaled(id, a, scale, d);
+                        if !b.is_empty() {
+                            self.engine.excite_scaled(id, b, scale, d + a.len());
+                        }
+                        true
+                    }
+                    None => false,
+                };
+                chunk.commit_all();
+                ok
+            }
+            Cue::GrainImpact {
+                source,
+                delay,
+                impulse_n_s,
+            } => match self.players.get_mut(source as usize) {
+                Some(Some(p)) => {
+                    p.impact((delay as usize).saturating_sub(late), impulse_n_s);
+                    true
+                }
+                _ => false,
+            },
+            Cue::GrainContact { source, contact } => match self.players.get_mut(source as usize) {
+                Some(Some(p)) => {
+                    p.set_contact(contact);
+                    true
+                }
+                _ => false,
+            },
+        }
+    }
+
+    fn render(&mut self, out: &mut [&mut [f32]], at: usize, len: usize) {
+        let positions = &self.positions;
+        let spatializer = &mut self.spatializer;
+        let mut sounding = 0u64;
+        self.engine
+            .process_voices(len, &mut |source, offset, block| {
+                sounding += 1;
+                spatializer.place(block, offset, positions[source]);
+            });
+        for (i, p) in self.players.iter_mut().enumerate() {
+            let Some(p) = p else { continue };
+            if p.is_silent() {
+                continue;
+            }
+            let block = &mut self.scratch[..len];
+            block.fill(0.0);
+            p.process(block);
+            sounding += 1;
+            spatializer.place(block, 0, positions[i]);
+        }
+        match out {
+            [a] => spatializer.render(&mut [&mut a[at..at + len]]),
+            [a, b, ..] => spatializer.render(&mut [&mut a[at..at + len], &mut b[at..at + len]]),
+            [] => {}
+        }
+        self.stats
+            .max_sounding
+            .fetch_max(sounding, Ordering::Relaxed);
+    }
+
+    /// Steps the degradation up or down after a callback that took `share` of its deadline.
+    fn govern(&mut self, g: Governor, share: f64) {
+        let before = self.level;
+        if share > g.high && self.level < 8 {
+            self.level += 1;
+            self.calm = 0;
+        } else if share < g.low && self.level > 0 {
+            self.calm += 1;
+            if self.calm >= g.calm_callbacks {
+                self.level -= 1;
+                self.calm = 0;
+            }
+        } else {
+            self.calm = 0;
+        }
+        if self.level != before {
+            // Levels 1–3 raise the cull level tenfold each; from 4 on, the voice budget halves.
+            let cull_steps = self.level.min(3) as i32;
+            self.engine
+                .set_cull_level(self.base_cull * 10f32.powi(cull_steps));
+            let voices = self.voices.iter().filter(|v| v.is_some()).count().max(1);
+            let budget = if self.level <= 3 {
+                usize::MAX
+            } else {
+                (voices >> (self.level - 3)).max(1)
+            };
+            self.engine.set_voice_budget(budget);
+            self.stats
+                .degradation
+                .store(u64::from(self.level), Ordering::Relaxed);
+        }
+        self.stats
+            .steals
+            .store(self.engine.steals(), Ordering::Relaxed);
+    }
+}
