@@ -92,6 +92,108 @@ pub fn play(strike: &Strike, gain: f32, sample_rate: u32, seconds: f64) -> Resul
     Ok(())
 }
 
+/// Plays the scene file `path` live on the default output device: rapier on its own thread,
+/// the scene's audio side in the device callback (blocks of `block` samples asked for), the
+/// physical level times `gain_db`. Prints the live figures at the end.
+#[cfg(feature = "live")]
+pub fn play_scene(
+    path: &std::path::Path,
+    params: &resound::scene::SceneRenderParams,
+    block: usize,
+    gain_db: f64,
+) -> Result<()> {
+    use anyhow::{anyhow, Context};
+    use cpal::traits::{DeviceTrait, HostTrait, StreamTrait};
+    use resound::physics::live::{live_scene, run_physics, LiveParams};
+    use resound::synth::scene_audio::AudioStats;
+    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+    let (bodies, sp) = resound::scene::load_scene(path, params, &|m| eprintln!("{m}"))?;
+    let host = cpal::default_host();
+    let device = host
+        .default_output_device()
+        .context("no audio output device")?;
+    let default = device
+        .default_output_config()
+        .map_err(|e| anyhow!("the audio output device is not usable: {e}"))?;
+    let channels = usize::from(default.channels());
+    let sample_rate = sp.sample_rate_hz as u32;
+    // A callback may ask for more than `block` frames; the driver renders it in pieces.
+    let (mut physics, mut tx, mut driver, latency) = live_scene(
+        &bodies,
+        &sp,
+        &LiveParams {
+            block,
+            ..LiveParams::default()
+        },
+    )?;
+    let total = (physics.total_samples() + latency) as u64;
+    let stats = std::sync::Arc::clone(driver.stats());
+    let gain = 10f32.powf((gain_db / 20.0) as f32);
+    let config = cpal::StreamConfig {
+        channels: default.channels(),
+        sample_rate: cpal::SampleRate(sample_rate),
+        buffer_size: cpal::BufferSize::Fixed(block as u32),
+    };
+    let stream = device
+        .build_output_stream(
+            &config,
+            move |data: &mut [f32], _: &cpal::OutputCallbackInfo| {
+                driver.fill_interleaved(data, channels);
+                for v in data.iter_mut() {
+                    *v = (*v * gain).clamp(-1.0, 1.0);
+                }
+            },
+            |e| eprintln!("audio error: {e}"),
+            None,
+        )
+        .map_err(|e| {
+            anyhow!(
+                "cannot open the audio device at {sample_rate} Hz with {block}-sample blocks ({e}); the scene's sample_rate must be one the device takes ({} Hz), or try another --block",
+                default.sample_rate().0
+            )
+        })?;
+    let frontier = AtomicU64::new(0);
+    let stop = AtomicBool::new(false);
+    stream
+        .play()
+        .map_err(|e| anyhow!("cannot start playback: {e}"))?;
+    std::thread::scope(|s| {
+        s.spawn(|| run_physics(&mut physics, &mut tx, block, &frontier, &stop));
+        // A device that stops calling back must not hang us: the scene's length plus 5 s.
+        let limit = std::time::Duration::from_secs_f64(total as f64 / sp.sample_rate_hz + 5.0);
+        let t0 = std::time::Instant::now();
+        while AudioStats::get(&stats.rendered) < total && t0.elapsed() < limit {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        stop.store(true, Ordering::Relaxed);
+    });
+    drop(stream);
+    eprintln!(
+        "played {} live: {} callbacks, latency {latency} samples + the device's, {} late steps, {} dropped cues, {} voices stolen, degradation level {}",
+        path.display(),
+        AudioStats::get(&stats.callbacks),
+        AudioStats::get(&stats.late_steps),
+        AudioStats::get(&stats.dropped),
+        AudioStats::get(&stats.steals),
+        AudioStats::get(&stats.degradation),
+    );
+    Ok(())
+}
+
+/// Without the `live` feature there is no audio device support.
+#[cfg(not(feature = "live"))]
+pub fn play_scene(
+    _path: &std::path::Path,
+    _params: &resound::scene::SceneRenderParams,
+    _block: usize,
+    _gain_db: f64,
+) -> Result<()> {
+    anyhow::bail!(
+        "this resound was built without live audio; rebuild with `cargo build --release --features live` (needs ALSA headers: libasound2-dev), or use --simulate-device"
+    )
+}
+
 /// Without the `live` feature there is no audio device support.
 #[cfg(not(feature = "live"))]
 pub fn play(_strike: &Strike, _gain: f32, _sample_rate: u32, _seconds: f64) -> Result<()> {

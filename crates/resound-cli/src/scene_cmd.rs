@@ -37,9 +37,9 @@ Every field: the docs of resound_io::scene::BodyFile. A full example: assets/sce
 pub struct SceneArgs {
     /// Scene file (TOML: bodies, materials, listener; the format is at the end of --help).
     pub scene: PathBuf,
-    /// Output WAV (stereo unless the scene says `stereo = false`).
-    #[arg(short, long)]
-    pub output: PathBuf,
+    /// Output WAV (stereo unless the scene says `stereo = false`); not needed with `--live`.
+    #[arg(short, long, required_unless_present = "live")]
+    pub output: Option<PathBuf>,
     /// Event log (JSON lines: time, bodies, kind, force, speed, point).
     #[arg(long)]
     pub events: Option<PathBuf>,
@@ -58,6 +58,21 @@ pub struct SceneArgs {
     /// Also play the result (needs the `live` build feature).
     #[arg(long, hide = !cfg!(feature = "live"))]
     pub play: bool,
+    /// Play the scene live on the default audio device while it is simulated: rapier steps on
+    /// its own thread, the audio callback renders (needs the `live` build feature). The level
+    /// is the physical one (σ-calibrated) times `--gain-db`.
+    #[arg(long, conflicts_with = "play")]
+    pub live: bool,
+    /// Run the live path against a simulated device (no sound card needed) and write what it
+    /// would have played to `--output`: physics thread, lock-free queues, device blocks.
+    #[arg(long, conflicts_with = "live")]
+    pub simulate_device: bool,
+    /// Device block for `--live` and `--simulate-device`, samples.
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(16..=8192))]
+    pub block: u32,
+    /// Gain of `--live` playback, dB.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub gain_db: f64,
     /// Keep the physical level (σ-calibrated) instead of normalizing the peak to −1 dBFS; a mix
     /// that would clip is still turned down.
     #[arg(long)]
@@ -81,12 +96,14 @@ struct Output<'a> {
 
 /// Runs `scene`.
 pub fn run(a: SceneArgs) -> Result<()> {
-    let outs: Vec<&std::path::Path> = std::iter::once(&a.output)
+    let outs: Vec<&std::path::Path> = a
+        .output
+        .iter()
         .chain(&a.events)
         .map(|p| p.as_path())
         .collect();
     crate::util::check_paths(&[&a.scene], &outs)?;
-    let params = SceneRenderParams {
+    let mut params = SceneRenderParams {
         library: a.library.clone(),
         cache_dir: if a.no_cache {
             None
@@ -94,6 +111,19 @@ pub fn run(a: SceneArgs) -> Result<()> {
             a.cache.clone().or_else(default_cache_dir)
         },
         keep_level: a.keep_level,
+        live: None,
+    };
+    if a.live {
+        return crate::live::play_scene(&a.scene, &params, a.block as usize, a.gain_db);
+    }
+    if a.simulate_device {
+        params.live = Some(resound::physics::live::LiveParams {
+            block: a.block as usize,
+            ..Default::default()
+        });
+    }
+    let Some(output) = a.output.as_ref() else {
+        anyhow::bail!("--output is needed");
     };
     let spinner = crate::util::spinner("scene");
     let stage = |m: &str| spinner.set_message(m.to_string());
@@ -103,7 +133,7 @@ pub fn run(a: SceneArgs) -> Result<()> {
     let r = r?;
     crate::util::warn_all(&r.summary.notes);
     let refs: Vec<&[f32]> = r.channels.iter().map(|c| c.as_slice()).collect();
-    write_wav_channels(&a.output, &refs, r.sample_rate_hz, WavFormat::Pcm24)?;
+    write_wav_channels(output, &refs, r.sample_rate_hz, WavFormat::Pcm24)?;
     if let Some(p) = &a.events {
         resound::files::write_json_lines(p, &r.events)?;
     }
@@ -122,17 +152,37 @@ pub fn run(a: SceneArgs) -> Result<()> {
         crate::live::play(&strike, 1.0, r.sample_rate_hz, r.summary.duration_s)?;
     }
     let s = &r.summary;
+    if let Some(l) = &s.live {
+        if l.late_steps > 0 || l.dropped_cues > 0 {
+            eprintln!(
+                "warning: the live path fell behind: {} late steps, {} dropped cues",
+                l.late_steps, l.dropped_cues
+            );
+        }
+    }
     if a.json {
         return crate::util::print_json(&Output {
-            output: a.output.display().to_string(),
+            output: output.display().to_string(),
             summary: s,
         });
     }
-    eprintln!(
-        "wrote {} ({} impacts, {:.1}x real time)",
-        a.output.display(),
-        s.impacts,
-        s.realtime_factor
-    );
+    match &s.live {
+        Some(l) => eprintln!(
+            "wrote {} through the live path ({} impacts; {} blocks of {}, latency {} samples, callback p99 {:.0}% of its deadline, {} xruns)",
+            output.display(),
+            s.impacts,
+            l.callbacks,
+            l.block,
+            l.latency_samples,
+            100.0 * l.p99_share,
+            l.xruns
+        ),
+        None => eprintln!(
+            "wrote {} ({} impacts, {:.1}x real time)",
+            output.display(),
+            s.impacts,
+            s.realtime_factor
+        ),
+    }
     Ok(())
 }

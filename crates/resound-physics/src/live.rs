@@ -18,7 +18,7 @@
 use crate::scene::ScenePhysics;
 use crate::{BodySpec, Event, SceneError, SceneParams, SceneStats};
 use resound_synth::scene_audio::{scene_audio, AudioStats, CueSender, Governor, SceneAudio};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -57,7 +57,7 @@ impl Default for LiveParams {
 }
 
 /// Figures of a live run.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct LiveReport {
     /// Device block, samples.
     pub block: usize,

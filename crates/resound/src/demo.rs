@@ -235,6 +235,7 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
             library: p.library.clone(),
             cache_dir: p.cache_dir.clone(),
             keep_level: false,
+            live: None,
         },
         &|_| {},
         &|_| {},

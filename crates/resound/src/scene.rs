@@ -372,6 +372,8 @@ pub struct SceneRenderParams {
     /// Keep the σ-calibrated level instead of normalizing the peak to −1 dBFS (a mix that would
     /// clip is still turned down).
     pub keep_level: bool,
+    /// Run through the live path with a simulated device (`None`: offline).
+    pub live: Option<resound_physics::live::LiveParams>,
 }
 
 /// Figures of a rendered scene.
@@ -409,6 +411,9 @@ pub struct SceneSummary {
     pub peak_rss_mb: f64,
     /// Things the user should know (silence, turned down to avoid clipping).
     pub notes: Vec<String>,
+    /// Live-path figures (a run with a simulated device).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub live: Option<resound_physics::live::LiveReport>,
 }
 
 /// A rendered scene.
@@ -437,8 +442,37 @@ pub fn peak_rss_mb() -> f64 {
         .map_or(0.0, |kb| kb / 1024.0)
 }
 
+/// Reads and builds the scene file `path` (bodies with their sound, and settings), without
+/// running it; `stage` gets build messages.
+///
+/// # Errors
+/// Unreadable or invalid scene files (with line and field), bodies that cannot be built.
+pub fn load_scene(
+    path: &Path,
+    params: &SceneRenderParams,
+    stage: &dyn Fn(&str),
+) -> Result<(Vec<BodySpec>, SceneParams)> {
+    let scene = resound_io::scene::read_scene(path)?;
+    let library = crate::material::read_library(params.library.as_deref())?;
+    let base_dir = path
+        .parent()
+        .map_or_else(|| PathBuf::from("."), PathBuf::from);
+    build_scene(
+        &scene,
+        &BuildOptions {
+            base_dir: &base_dir,
+            library: library.as_ref(),
+            cache_dir: params.cache_dir.clone(),
+            progress: stage,
+        },
+    )
+    .map_err(|e| e.context(format!("building {}", path.display())))
+}
+
 /// Reads, builds and renders the scene file `path`: `stage` gets build messages, `simulated`
-/// the simulated fraction.
+/// the simulated fraction. With `params.live`, the scene runs through the live path (physics
+/// on its own thread, device blocks from a simulated device) and the result is what a device
+/// would have played, `latency` samples late.
 ///
 /// # Errors
 /// Unreadable or invalid scene files (with line and field), bodies that cannot be built, a
@@ -450,25 +484,29 @@ pub fn render_scene(
     simulated: &dyn Fn(f64),
 ) -> Result<SceneRender> {
     let t0 = std::time::Instant::now();
-    let scene = resound_io::scene::read_scene(path)?;
-    let library = crate::material::read_library(params.library.as_deref())?;
-    let base_dir = path
-        .parent()
-        .map_or_else(|| PathBuf::from("."), PathBuf::from);
-    let (bodies, sp) = build_scene(
-        &scene,
-        &BuildOptions {
-            base_dir: &base_dir,
-            library: library.as_ref(),
-            cache_dir: params.cache_dir.clone(),
-            progress: stage,
-        },
-    )
-    .map_err(|e| e.context(format!("building {}", path.display())))?;
+    let (bodies, sp) = load_scene(path, params, stage)?;
     let build_s = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
-    let mut out = resound_physics::simulate(&bodies, &sp, simulated)
-        .map_err(|e| Error::from(e).context(format!("simulating {}", path.display())))?;
+    let context = |e: resound_physics::SceneError| {
+        Error::from(e).context(format!("simulating {}", path.display()))
+    };
+    let (mut out, live) = match &params.live {
+        None => (
+            resound_physics::simulate(&bodies, &sp, simulated).map_err(context)?,
+            None,
+        ),
+        Some(lp) => {
+            let o = resound_physics::live::render_live(&bodies, &sp, lp).map_err(context)?;
+            (
+                resound_physics::SceneOutput {
+                    channels: o.channels,
+                    events: o.events,
+                    stats: o.stats,
+                },
+                Some(o.report),
+            )
+        }
+    };
     let simulate_s = t1.elapsed().as_secs_f64();
     let mode = if params.keep_level {
         resound_synth::render::Level::Guard
@@ -506,6 +544,7 @@ pub fn render_scene(
         events: out.events.len(),
         peak_rss_mb: peak_rss_mb(),
         notes,
+        live,
     };
     Ok(SceneRender {
         channels: out.channels,

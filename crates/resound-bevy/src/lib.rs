@@ -1,0 +1,422 @@
+//! Resound for Bevy: rigid bodies that sound when bevy_rapier3d makes them touch.
+//!
+//! Add [`ResoundPlugin`], give a rigid body a [`Sounding`] (its modes and gains: from a
+//! library or estimated material and a modal model, see [`Sounding::from_material`]) and
+//! mark one entity [`Listener`]. Each frame, after rapier's step, the plugin reads the contact
+//! force events of sounding bodies and sends excitations to Resound's scene audio side
+//! (`resound::synth::scene_audio`, the same allocation-free backend as `resound scene`):
+//!
+//! - a pair that starts touching is an **impact**: a half-sine force pulse carrying the
+//!   solver's impulse of the frame (contact force × frame time);
+//! - a pair that stays in touch and slides or rolls (tangential relative speed above 2 cm/s)
+//!   **rubs**: white noise of RMS `roughness × normal force × speed` over the frame;
+//! - a pair at rest, and a body in free fall, send nothing: silence once the modes decay.
+//!
+//! Sources are placed at their bodies' positions every frame and heard from the listener with
+//! 1/r attenuation, the propagation delay and an equal-power pan. Headless (no device: tests,
+//! offline renders), the plugin renders each frame's samples itself into [`ResoundOutput`];
+//! with `capture: false` a device callback can take the audio side from [`ResoundAudio`].
+
+use bevy::prelude::*;
+use bevy_rapier3d::prelude::*;
+use resound::synth::scene_audio::{
+    scene_audio, Cue, CueSender, SceneAudio, SceneAudioParams, Source,
+};
+use std::collections::{HashMap, HashSet};
+
+/// The plugin's settings.
+#[derive(Clone, Debug)]
+pub struct ResoundPlugin {
+    /// Output sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Two channels instead of one.
+    pub stereo: bool,
+    /// Render each frame's samples into [`ResoundOutput`] (headless).
+    pub capture: bool,
+    /// RMS rubbing force per newton of normal force and m/s of speed.
+    pub roughness: f64,
+}
+
+impl Default for ResoundPlugin {
+    fn default() -> Self {
+        Self {
+            sample_rate_hz: 48_000.0,
+            stereo: true,
+            capture: true,
+            roughness: 0.01,
+        }
+    }
+}
+
+/// How a rigid body sounds: its modes and their gains at the struck point.
+#[derive(Component, Clone, Debug)]
+pub struct Sounding {
+    /// Damped frequency (Hz) and decay rate (1/s) of each mode.
+    pub modes: Vec<(f64, f64)>,
+    /// Output amplitude per N·s of each mode.
+    pub gains: Vec<f32>,
+}
+
+impl Sounding {
+    /// The modes of `model` in `material` (α, β, γ, σ: from the library or estimated from a
+    /// recording) at `sample_rate_hz`, with the gains at surface vertex `vertex`.
+    pub fn from_material(
+        model: &resound::core::ModalModel,
+        material: &resound::core::SoundMaterial,
+        vertex: usize,
+        sample_rate_hz: f64,
+    ) -> Self {
+        let poisson = model.material.poisson_ratio;
+        let s = resound::scene::body_sound(model, material, poisson, sample_rate_hz);
+        let m = s.modes.len();
+        let k = vertex.min(s.vertices.len().saturating_sub(1));
+        Self {
+            gains: s
+                .gains
+                .get(k * m..(k + 1) * m)
+                .map_or(Vec::new(), <[f32]>::to_vec),
+            modes: s.modes,
+        }
+    }
+}
+
+/// The entity whose position the sound is heard from (the first one found at start-up).
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct Listener;
+
+/// The sound rendered so far (headless, `capture: true`): one or two channels.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct ResoundOutput {
+    /// Channels at `sample_rate_hz`.
+    pub channels: Vec<Vec<f32>>,
+    /// Sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Impacts sent, with their frame's start time (s) and the bodies.
+    pub impacts: Vec<(f64, Entity, Entity)>,
+}
+
+/// The plugin's link to the audio side (a resource; the mutex makes the queue ends `Sync`
+/// for Bevy and is only ever taken through `&mut`, so it never locks).
+#[derive(Resource)]
+pub struct ResoundAudio(pub std::sync::Mutex<AudioLink>);
+
+/// The sending end and, headless, the audio side.
+pub struct AudioLink {
+    tx: CueSender,
+    /// The audio side (taken by a device callback when `capture` is off).
+    pub audio: Option<SceneAudio>,
+    source_of: HashMap<Entity, u32>,
+    touching: HashSet<(Entity, Entity)>,
+    clock: u64,
+    pulse: Vec<f32>,
+    noise: Vec<f32>,
+    rng: u64,
+}
+
+#[derive(Resource, Clone)]
+struct Settings(ResoundPlugin);
+
+impl Plugin for ResoundPlugin {
+    fn build(&self, app: &mut App) {
+        app.insert_resource(Settings(self.clone()))
+            .insert_resource(ResoundOutput {
+                sample_rate_hz: self.sample_rate_hz,
+                ..Default::default()
+            })
+            .add_systems(PostStartup, start)
+            .add_systems(PostUpdate, excite.after(PhysicsSet::Writeback));
+    }
+}
+
+/// Builds the audio side from every sounding body and asks rapier for their contact forces.
+fn start(
+    mut commands: Commands,
+    settings: Res<Settings>,
+    bodies: Query<(Entity, &Sounding, &Transform)>,
+    listener: Query<&Transform, With<Listener>>,
+) {
+    let s = &settings.0;
+    let listener = listener
+        .iter()
+        .next()
+        .map_or([0.0; 3], |t| t.translation.to_array().map(f64::from));
+    let mut sources = Vec::new();
+    let mut source_of = HashMap::new();
+    for (e, snd, t) in &bodies {
+        source_of.insert(e, sources.len() as u32);
+        sources.push(Source {
+            modes: snd.modes.clone(),
+            gains: snd.gains.clone(),
+            grains: None,
+            position: t.translation.to_array().map(f64::from),
+        });
+        commands.entity(e).insert((
+            ActiveEvents::CONTACT_FORCE_EVENTS,
+            ContactForceEventThreshold(0.0),
+            Velocity::default(),
+        ));
+    }
+    let params = SceneAudioParams {
+        sample_rate_hz: s.sample_rate_hz,
+        stereo: s.stereo,
+        listener,
+        max_delay_s: 1.0,
+        max_block: 8192,
+        force_capacity: 1 << 15,
+        cull_level: 1e-7,
+        cue_capacity: 1 << 14,
+        sample_capacity: 1 << 20,
+        governor: None,
+    };
+    match scene_audio(&params, sources) {
+        Ok((tx, audio)) => {
+            let fs = s.sample_rate_hz;
+            commands.insert_resource(ResoundAudio(std::sync::Mutex::new(AudioLink {
+                tx,
+                audio: Some(audio),
+                source_of,
+                touching: HashSet::new(),
+                clock: 0,
+                pulse: vec![0.0; (fs * 5e-4).round().max(1.0) as usize],
+                noise: vec![0.0; 8192],
+                rng: 0x9E37_79B9_7F4A_7C15,
+            })));
+        }
+        Err(e) => eprintln!("resound: no audio: {e}"),
+    }
+}
+
+/// After rapier's step: impacts and rubbing from the contact forces, positions, and (headless)
+/// the frame's samples.
+fn excite(
+    settings: Res<Settings>,
+    time: Res<Time>,
+    state: Option<ResMut<ResoundAudio>>,
+    mut output: ResMut<ResoundOutput>,
+    mut forces: MessageReader<ContactForceEvent>,
+    bodies: Query<(&Transform, Option<&Velocity>)>,
+) {
+    let Some(mut state) = state else {
+        forces.clear();
+        return;
+    };
+    let s = &settings.0;
+    let fs = s.sample_rate_hz;
+    let dt = time.delta_secs_f64();
+    let n = (dt * fs).round() as usize;
+    if n == 0 {
+        forces.clear();
+        return;
+    }
+    let Ok(st) = state.0.get_mut() else {
+        return;
+    };
+    st.tx.step(st.clock);
+    for (&e, &i) in &st.source_of {
+        if let Ok((t, _)) = bodies.get(e) {
+            st.tx.send(Cue::Place {
+                source: i,
+                position: t.translation.to_array(),
+            });
+        }
+    }
+    let mut now = HashSet::new();
+    for f in forces.read() {
+        let key = if f.collider1 < f.collider2 {
+            (f.collider1, f.collider2)
+        } else {
+            (f.collider2, f.collider1)
+        };
+        now.insert(key);
+        let normal_force = f64::from(f.total_force_magnitude);
+        let velocity = |e: Entity| {
+            bodies
+                .get(e)
+                .ok()
+                .and_then(|(_, v)| v.copied())
+                .unwrap_or_default()
+        };
+        let (v1, v2) = (velocity(key.0), velocity(key.1));
+        let rel = v1.linear - v2.linear;
+        let dir = f.max_force_direction;
+        let tangential = (rel - dir * rel.dot(dir)).length();
+        let targets = [key.0, key.1].map(|e| st.source_of.get(&e).copied());
+        if !st.touching.contains(&key) {
+            // An impact: the frame's impulse as a 0.5 ms half-sine.
+            let impulse = normal_force * dt;
+            let len = st.pulse.len();
+            let mut sum = 0.0;
+            for (k, p) in st.pulse.iter_mut().enumerate() {
+                let v = (std::f64::consts::PI * (k as f64 + 0.5) / len as f64).sin();
+                *p = v as f32;
+                sum += v;
+            }
+            let scale = impulse * fs / sum;
+            for i in targets.into_iter().flatten() {
+                let pulse = std::mem::take(&mut st.pulse);
+                st.tx.force(i as usize, 0, &pulse, scale, 0);
+                st.pulse = pulse;
+            }
+            output.impacts.push((st.clock as f64 / fs, key.0, key.1));
+        } else if tangential > 0.02 {
+            // Rubbing: white noise over the frame.
+            let m = n.min(st.noise.len());
+            let mut r = st.rng;
+            for v in &mut st.noise[..m] {
+                r ^= r << 13;
+                r ^= r >> 7;
+                r ^= r << 17;
+                *v = (((r >> 40) as f64 / (1u64 << 24) as f64 - 0.5) * 12f64.sqrt()) as f32;
+            }
+            st.rng = r;
+            let rms = s.roughness * normal_force * f64::from(tangential);
+            for i in targets.into_iter().flatten() {
+                let noise = std::mem::take(&mut st.noise);
+                st.tx.force(i as usize, 0, &noise[..m], rms, 0);
+                st.noise = noise;
+            }
+        }
+    }
+    st.touching = now;
+    if s.capture {
+        if let Some(audio) = st.audio.as_mut() {
+            let channels = audio.channels();
+            if output.channels.len() != channels {
+                output.channels = vec![Vec::new(); channels];
+            }
+            let start = output.channels[0].len();
+            for c in &mut output.channels {
+                c.resize(start + n, 0.0);
+            }
+            match output.channels.as_mut_slice() {
+                [a] => audio.process(&mut [&mut a[start..]]),
+                [a, b] => audio.process(&mut [&mut a[start..], &mut b[start..]]),
+                _ => {}
+            }
+        }
+    }
+    st.clock += n as u64;
+}
+
+/// A headless scene for examples and tests: a fixed table and `heights.len()` bars of the
+/// given sound dropped from those heights (m), heard from 0.5 m above the table.
+pub mod drop_scene {
+    use super::*;
+    use std::time::Duration;
+
+    /// Frames per second of the headless app.
+    pub const FPS: f64 = 60.0;
+
+    /// Half extents of the dropped bars, m.
+    pub const BAR: [f32; 3] = [0.05, 0.015, 0.0025];
+
+    /// An app with MinimalPlugins (no window, no device), rapier at a fixed 1/60 s per frame
+    /// (4 substeps), the plugin, a table and the bars.
+    pub fn app(sound: &Sounding, heights: &[f32]) -> App {
+        let mut app = App::new();
+        app.add_plugins((
+            MinimalPlugins,
+            TransformPlugin,
+            RapierPhysicsPlugin::<NoUserData>::default(),
+            ResoundPlugin::default(),
+        ))
+        .insert_resource(TimestepMode::Fixed {
+            dt: (1.0 / FPS) as f32,
+            substeps: 4,
+        })
+        .insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+            Duration::from_secs_f64(1.0 / FPS),
+        ));
+        let world = app.world_mut();
+        world.spawn((
+            Transform::from_xyz(0.0, -0.05, 0.0),
+            RigidBody::Fixed,
+            Collider::cuboid(1.0, 0.05, 1.0),
+            Restitution::coefficient(0.3),
+        ));
+        world.spawn((Transform::from_xyz(0.0, 0.5, 0.3), Listener));
+        for (i, &h) in heights.iter().enumerate() {
+            world.spawn((
+                Transform::from_xyz(-0.3 + 0.3 * i as f32, h + BAR[1], 0.0),
+                RigidBody::Dynamic,
+                Collider::cuboid(BAR[0], BAR[1], BAR[2]),
+                ColliderMassProperties::Density(2700.0),
+                Restitution::coefficient(0.3),
+                sound.clone(),
+            ));
+        }
+        app.finish();
+        app
+    }
+
+    /// The headless example: the material of `recording` (first strike, 100 Hz high-pass) is
+    /// estimated on a stand-in aluminium bar of the dropped bars' size; three bars of it fall
+    /// onto the table for 2 s; the sound (peak at −1 dB) goes to `out` (24-bit WAV). Returns
+    /// the material and the output.
+    pub fn estimate_and_drop(
+        recording: &std::path::Path,
+        out: &std::path::Path,
+    ) -> resound::Result<(resound::core::SoundMaterial, ResoundOutput)> {
+        use resound::material::{estimate_material, EstimateMaterialParams};
+        let params = resound::signal::AnalyzeParams {
+            highpass_hz: Some(100.0),
+            strike: Some(0),
+            ..Default::default()
+        };
+        let (_, analysis) = resound::recording::analyze_file(
+            recording,
+            &resound::recording::RecordingParams::default(),
+            &params,
+        )?;
+        let size = BAR.map(|h| 2.0 * f64::from(h));
+        let bar = resound::fem::primitive::bar(size);
+        let aluminium = resound::core::Material::preset("aluminium")?;
+        let model = resound::modal::ModalBuilder::surface(&bar, &aluminium)
+            .modes(40)
+            .solve()?
+            .model;
+        let hit = model.hit([0.3 * size[0], 0.5 * size[1], 0.5 * size[2]])?;
+        let (material, _) = estimate_material(
+            &analysis,
+            &model,
+            &hit,
+            &EstimateMaterialParams::default(),
+            &|| {},
+        )?;
+        let sound = Sounding::from_material(&model, &material, 0, 48_000.0);
+        let mut app = app(&sound, &[0.2, 0.35, 0.5]);
+        let output = run(&mut app, 2.0);
+        let peak = output
+            .channels
+            .iter()
+            .flat_map(|c| c.iter())
+            .fold(0.0f32, |m, v| m.max(v.abs()));
+        if !(peak > 0.0 && peak.is_finite()) {
+            return Err(resound::Error::Invalid(format!(
+                "the scene is silent or not finite (peak {peak})"
+            )));
+        }
+        let g = 0.891 / peak;
+        let levelled: Vec<Vec<f32>> = output
+            .channels
+            .iter()
+            .map(|c| c.iter().map(|v| v * g).collect())
+            .collect();
+        let refs: Vec<&[f32]> = levelled.iter().map(|c| c.as_slice()).collect();
+        resound::io::write_wav_channels(
+            out,
+            &refs,
+            output.sample_rate_hz as u32,
+            resound::io::WavFormat::Pcm24,
+        )?;
+        Ok((material, output))
+    }
+
+    /// Runs `app` for `seconds` and returns what the plugin rendered.
+    pub fn run(app: &mut App, seconds: f64) -> ResoundOutput {
+        for _ in 0..(seconds * FPS).round() as usize {
+            app.update();
+        }
+        app.world().resource::<ResoundOutput>().clone()
+    }
+}

@@ -1,0 +1,104 @@
+//! The plugin headless: bars dropped onto a table sound at each impact, not in free fall, and
+//! fall quiet at rest.
+#![allow(clippy::unwrap_used)]
+
+use resound_bevy::{drop_scene, Sounding};
+
+fn sound() -> Sounding {
+    Sounding {
+        modes: vec![(820.0, 12.0), (2270.0, 20.0), (4450.0, 35.0)],
+        gains: vec![0.05, 0.03, 0.02],
+    }
+}
+
+fn rms(x: &[f32]) -> f64 {
+    (x.iter().map(|&v| f64::from(v).powi(2)).sum::<f64>() / x.len().max(1) as f64).sqrt()
+}
+
+#[test]
+fn dropped_bars_sound_at_each_impact_and_are_silent_in_free_fall_and_at_rest() {
+    let heights = [0.2f32, 0.35, 0.5];
+    let mut app = drop_scene::app(&sound(), &heights);
+    let out = drop_scene::run(&mut app, 3.0);
+    let fs = out.sample_rate_hz;
+    assert_eq!(out.channels.len(), 2);
+    let mix: Vec<f32> = out.channels[0]
+        .iter()
+        .zip(&out.channels[1])
+        .map(|(a, b)| a + b)
+        .collect();
+    // The first update has no elapsed time: one frame less than 3 s.
+    assert_eq!(
+        mix.len(),
+        (3.0 * fs) as usize - (fs / drop_scene::FPS) as usize
+    );
+    assert!(!out.impacts.is_empty());
+    // Free fall: the lowest bar lands after √(2h/g) = 0.20 s; nothing sounds before.
+    let first = out.impacts[0].0;
+    let fall = (2.0 * f64::from(heights[0]) / 9.81).sqrt();
+    assert!(
+        (first - fall).abs() < 2.0 / drop_scene::FPS,
+        "first impact at {first} s, free fall lasts {fall} s"
+    );
+    let onset = mix.iter().position(|&v| v != 0.0).unwrap();
+    assert!(
+        onset as f64 >= first * fs,
+        "sound at {} s before the first impact at {first} s",
+        onset as f64 / fs
+    );
+    // Every bar lands: an impact within two frames of its free-fall time, and sound starts
+    // there (the frame of the impact plus the propagation delay is louder than before it).
+    for &h in &heights {
+        let t = (2.0 * f64::from(h) / 9.81).sqrt();
+        let hit = out
+            .impacts
+            .iter()
+            .find(|(ti, ..)| (ti - t).abs() < 2.0 / drop_scene::FPS)
+            .unwrap_or_else(|| panic!("no impact near {t} s: {:?}", out.impacts));
+        let k = (hit.0 * fs) as usize;
+        let frame = (fs / drop_scene::FPS) as usize;
+        let before = rms(&mix[k.saturating_sub(frame)..k]);
+        let after = rms(&mix[k..k + 2 * frame]);
+        // The earlier bars still ring: a rise of a fifth at least.
+        assert!(
+            after > 1.2 * before && after > 0.0,
+            "impact at {} s: {after} vs {before}",
+            hit.0
+        );
+    }
+    // At rest: no impacts in the last second, and the sound has died away.
+    let last = out.impacts.last().unwrap().0;
+    assert!(last < 2.0, "impacts until {last} s");
+    let peak = mix.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let tail = &mix[(2.8 * fs) as usize..];
+    assert!(
+        rms(tail) < 1e-4 * f64::from(peak),
+        "tail {} vs peak {peak}",
+        rms(tail)
+    );
+}
+
+#[test]
+fn the_headless_example_estimates_a_material_and_writes_a_readable_wav() {
+    let dir = std::env::temp_dir().join(format!("resound-bevy-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("drop.wav");
+    let recording = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../assets/recordings/steel_nut_M4_2.wav");
+    let (material, output) = drop_scene::estimate_and_drop(&recording, &out).unwrap();
+    assert!(
+        material.gamma > 1e6 && material.gamma < 1e10,
+        "{}",
+        material.gamma
+    );
+    assert!(output.impacts.len() >= 3);
+    let clip = resound::io::load_audio(&out).unwrap();
+    assert_eq!(clip.channels.len(), 2);
+    assert_eq!(clip.sample_rate_hz, 48_000);
+    let peak = clip.channels[0]
+        .iter()
+        .chain(&clip.channels[1])
+        .fold(0.0f32, |m, v| m.max(v.abs()));
+    assert!((peak - 0.891).abs() < 0.01, "peak {peak}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
