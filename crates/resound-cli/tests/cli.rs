@@ -787,6 +787,42 @@ modes = 8
     assert!((t - (2.0f64 * 0.2 / 9.81).sqrt()).abs() < 3e-3, "{first}");
     // The modal models are cached: a second run finds them.
     assert!(std::fs::read_dir(d.join("cache")).unwrap().count() == 2);
+    // The live path against a simulated device plays the same, one physics step late.
+    let live: Value = serde_json::from_str(&ok(&resound(
+        &[
+            "scene",
+            "s.toml",
+            "-o",
+            "live.wav",
+            "--cache",
+            "cache",
+            "--simulate-device",
+            "--block",
+            "256",
+            "--json",
+        ],
+        d,
+    )))
+    .unwrap();
+    assert_eq!(live["live"]["latency_samples"], 200, "{live}");
+    assert_eq!(live["live"]["late_steps"], 0, "{live}");
+    assert_eq!(live["live"]["dropped_cues"], 0, "{live}");
+    let played = resound::io::load_audio(&d.join("live.wav")).unwrap();
+    for (a, b) in clip.channels.iter().zip(&played.channels) {
+        assert_eq!(b.len(), a.len() + 200);
+        let diff = a
+            .iter()
+            .zip(&b[200..])
+            .fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
+        // Both are levelled to −1 dBFS and written at 24 bits.
+        assert!(diff < 1e-4, "live differs from offline by {diff}");
+    }
+    if !cfg!(feature = "live") {
+        fails_with(
+            &resound(&["scene", "s.toml", "--live"], d),
+            "built without live audio",
+        );
+    }
     // A bad value names its line and field; nothing is written.
     std::fs::write(
         d.join("bad.toml"),

@@ -1002,7 +1002,7 @@ impl ScenePhysics {
 }
 
 /// Runs the scene offline: each physics step's cues go through the same queues and the same
-/// audio side ([`SceneAudio`]) a live run uses, and the step's samples are rendered right
+/// audio side ([`resound_synth::scene_audio::SceneAudio`]) a live run uses, and the step's samples are rendered right
 /// after. `progress` gets the simulated fraction now and then.
 pub fn simulate(
     bodies: &[BodySpec],

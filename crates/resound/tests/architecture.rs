@@ -10,15 +10,16 @@ const ORDER: &[&str] = &[
     "resound-fem",
     "resound-modal",
     "resound-signal",
+    "resound-grains",
     "resound-synth",
     "resound-estimate",
     "resound-stats",
-    "resound-grains",
     "resound-physics",
     "resound-io",
     "resound-plot",
     "resound",
     "resound-bench",
+    "resound-bevy",
     "resound-cli",
 ];
 
