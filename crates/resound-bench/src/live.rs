@@ -1,13 +1,36 @@
-//! `resound bench live`: the live backend driven by the simulated clock (no device), one core.
+//! `resound bench live`: the scenes' audio side (`resound_synth::scene_audio::SceneAudio`, the
+//! backend `resound scene --live` runs in its device callback) driven by a simulated device,
+//! one core.
 //!
-//! Each body has 40 modes (200 Hz–12 kHz, metal-like damping); every body is struck every
-//! 50 ms (staggered), and a quarter of them also roll or slide (a rub event every block). The
-//! frontend's work (sending events) is not timed: on a device it runs on the physics thread.
+//! Each body has 40 modes (200 Hz–12 kHz, metal-like damping) and sits on a circle 2 m around
+//! the listener (stereo, spatialized). A stand-in physics frontend runs 240 steps per second,
+//! one block ahead of the audio clock, and sends each step's cues one step late (the live
+//! scheduling): every body is struck every 50 ms (a 0.3 ms half-sine, staggered), and a
+//! quarter of them roll or slide (a step of noise force every step). The frontend's work is not
+//! timed: on a device it runs on the physics thread. The callback is.
 
-use resound_synth::bank::BankMode;
-use resound_synth::live::{channel, ClockReport, Event, SimulatedClock};
-use resound_synth::{Engine, EngineParams};
+use resound_synth::scene_audio::{scene_audio, AudioStats, SceneAudioParams, Source};
 use serde::Serialize;
+use std::time::Instant;
+
+/// Callback times of one run, as shares of the block's deadline.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ClockReport {
+    /// Callbacks run.
+    pub callbacks: usize,
+    /// Block length, samples.
+    pub block: usize,
+    /// The deadline, s.
+    pub deadline_s: f64,
+    /// Median callback time over the deadline.
+    pub p50_share: f64,
+    /// 99th percentile.
+    pub p99_share: f64,
+    /// Largest.
+    pub max_share: f64,
+    /// Callbacks over their deadline.
+    pub misses: usize,
+}
 
 /// One run of the live benchmark.
 #[derive(Clone, Debug, Serialize)]
@@ -18,21 +41,26 @@ pub struct LiveRun {
     pub seconds: f64,
     /// Callback times against the deadline.
     pub clock: ClockReport,
-    /// Events applied and dropped.
+    /// Excitations applied (impacts and rubs).
     pub events: u64,
-    /// Events the queue had no room for.
+    /// Cues the queues had no room for.
     pub dropped_events: u64,
+    /// Steps whose cues came after their start.
+    pub late_steps: u64,
+    /// The first impact's sound onset after its contact instant, less the propagation delay,
+    /// samples (the scheduled latency is one physics step, 200 samples, and a resonator's output
+    /// follows its force by one sample).
+    pub measured_latency_samples: Option<usize>,
 }
 
-fn body_modes(k: usize) -> Vec<BankMode> {
+fn body_modes(k: usize) -> Vec<(f64, f64)> {
     (0..40)
         .map(|j| {
             let f = 200.0 * 60f64.powf(j as f64 / 39.0) * (1.0 + 0.013 * (k % 7) as f64);
-            BankMode {
-                freq_hz: f,
-                damping_per_s: 0.5 * (6.3 + 2.1e-8 * (std::f64::consts::TAU * f).powi(2)),
-                gain: 0.02 / (1.0 + j as f64).sqrt() * if j % 2 == 0 { 1.0 } else { -1.0 },
-            }
+            (
+                f,
+                0.5 * (6.3 + 2.1e-8 * (std::f64::consts::TAU * f).powi(2)),
+            )
         })
         .collect()
 }
@@ -40,69 +68,140 @@ fn body_modes(k: usize) -> Vec<BankMode> {
 /// Renders `seconds` with `bodies` sounding bodies at `block` samples per callback, 48 kHz.
 ///
 /// # Errors
-/// The engine cannot be built (too many bodies).
+/// The audio side cannot be built (too many bodies).
 pub fn live_run(bodies: usize, seconds: f64, block: usize) -> Result<LiveRun, String> {
     let fs = 48_000.0;
-    let mut engine = Engine::new(EngineParams {
+    let step = 200usize;
+    let radius = 2.0;
+    let sources = (0..bodies)
+        .map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / bodies.max(1) as f64;
+            Source {
+                modes: body_modes(k),
+                gains: (0..40)
+                    .map(|j| 0.02 / (1.0 + j as f32).sqrt() * if j % 2 == 0 { 1.0 } else { -1.0 })
+                    .collect(),
+                grains: None,
+                position: [radius * a.cos(), 0.0, radius * a.sin()],
+            }
+        })
+        .collect();
+    let ahead = (block + step).div_ceil(step) + 2;
+    let params = SceneAudioParams {
         sample_rate_hz: fs,
-        voices: bodies.max(1),
-        modes_per_voice: 40,
+        stereo: true,
+        listener: [0.0; 3],
+        max_delay_s: 0.1,
+        max_block: block.max(step),
         force_capacity: 8192,
-        max_block: block.max(1),
-        ..EngineParams::default()
-    })
-    .map_err(|e| e.to_string())?;
-    let voices: Vec<_> = (0..bodies)
-        .map(|k| engine.attach(&body_modes(k), k))
-        .collect::<Result<_, _>>()
-        .map_err(|e| e.to_string())?;
-    // Every body's impact and (for a quarter) rub in one block: room for all of them.
-    let (mut front, mut back) = channel(engine, 4 * bodies.max(1) + 16);
-    let clock = SimulatedClock {
-        block,
-        sample_rate_hz: fs,
+        cull_level: 1e-7,
+        cue_capacity: (ahead * (2 * bodies + 4)).next_power_of_two(),
+        sample_capacity: ahead * (bodies * 16 + bodies.div_ceil(4) * step) + 1024,
+        governor: None,
     };
-    let blocks = (seconds * fs / block as f64).ceil() as usize;
+    let (mut tx, mut audio) = scene_audio(&params, sources).map_err(|e| e.to_string())?;
+    let pulse: Vec<f32> = {
+        let n = (3e-4 * fs).round() as usize;
+        let raw: Vec<f64> = (0..n)
+            .map(|i| (std::f64::consts::PI * (i as f64 + 0.5) / n as f64).sin())
+            .collect();
+        let sum: f64 = raw.iter().sum();
+        // 0.01 N·s: force samples in newtons (the resonators integrate over 1/fs).
+        raw.iter().map(|&v| (0.01 * fs * v / sum) as f32).collect()
+    };
+    let mut rng = 0x9E37_79B9_7F4A_7C15u64;
+    let mut noise = vec![0.0f32; step];
     let period = (0.05 * fs) as usize;
-    let report = clock.run(
-        &mut back,
-        blocks,
-        &mut |k| {
-            let start = k * block;
-            for (b, &voice) in voices.iter().enumerate() {
-                // Body b is struck at b·period/bodies + n·period.
+    let blocks = (seconds * fs / block as f64).ceil() as usize;
+    let total_steps = (blocks * block).div_ceil(step);
+    let mut next_step = 0usize;
+    let mut out = [vec![0.0f32; block], vec![0.0f32; block]];
+    let mut times = Vec::with_capacity(blocks);
+    let mut onset = None;
+    let first_contact = 0usize; // body 0 is struck at sample 0
+    for k in 0..blocks {
+        // The physics runs until its next step would end past the block after this one.
+        while next_step < total_steps && (next_step + 1) * step <= (k + 1) * block {
+            let s0 = next_step * step;
+            tx.step((s0 + step) as u64);
+            for b in 0..bodies {
                 let phase = b * period / bodies.max(1);
-                let next = if start <= phase {
+                let next = if s0 <= phase {
                     phase
                 } else {
-                    phase + (start - phase).div_ceil(period) * period
+                    phase + (s0 - phase).div_ceil(period) * period
                 };
-                if next < start + block {
-                    front.send(Event::Impact {
-                        voice,
-                        impulse_n_s: 0.01,
-                        contact_s: 3e-4,
-                        delay: (next - start) as u32,
-                    });
+                if next < s0 + step {
+                    tx.force(b, 0, &pulse, 1.0, next - s0);
                 }
                 if b % 4 == 0 {
-                    front.send(Event::Rub {
-                        voice,
-                        force_rms_n: 0.2,
-                        samples: block as u32,
-                        delay: 0,
-                    });
+                    for v in &mut noise {
+                        rng ^= rng << 13;
+                        rng ^= rng >> 7;
+                        rng ^= rng << 17;
+                        *v = ((rng >> 40) as f32 / (1u64 << 24) as f32 - 0.5) * 12f32.sqrt();
+                    }
+                    tx.force(b, 0, &noise, 0.2, 0);
                 }
             }
-        },
-        &mut |_, _| {},
-    );
-    let (_, events, dropped, _, _) = back.stats().snapshot();
+            next_step += 1;
+        }
+        let [l, r] = &mut out;
+        l.fill(0.0);
+        r.fill(0.0);
+        let t0 = Instant::now();
+        audio.process(&mut [&mut l[..], &mut r[..]]);
+        times.push(t0.elapsed().as_secs_f64() * fs / block as f64);
+        if onset.is_none() {
+            if let Some(i) = l
+                .iter()
+                .zip(r.iter())
+                .position(|(a, b)| *a != 0.0 || *b != 0.0)
+            {
+                onset = Some(k * block + i);
+            }
+        }
+    }
+    let misses = times.iter().filter(|&&t| t > 1.0).count();
+    let mut sorted = times.clone();
+    sorted.sort_by(f64::total_cmp);
+    let q = |p: f64| {
+        sorted
+            .get(((sorted.len() as f64 - 1.0) * p).round() as usize)
+            .copied()
+            .unwrap_or(0.0)
+    };
+    let propagation = (radius / resound_synth::spatial::SPEED_OF_SOUND_M_S * fs).round() as usize;
+    let s = audio.stats();
     Ok(LiveRun {
         bodies,
         seconds,
-        clock: report,
-        events,
-        dropped_events: dropped,
+        clock: ClockReport {
+            callbacks: blocks,
+            block,
+            deadline_s: block as f64 / fs,
+            p50_share: q(0.5),
+            p99_share: q(0.99),
+            max_share: sorted.last().copied().unwrap_or(0.0),
+            misses,
+        },
+        events: AudioStats::get(&s.cues),
+        dropped_events: AudioStats::get(&s.dropped),
+        late_steps: AudioStats::get(&s.late_steps),
+        measured_latency_samples: onset.map(|o| o.saturating_sub(first_contact + propagation)),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_first_impact_sounds_one_physics_step_after_its_contact() {
+        let r = live_run(4, 0.3, 256).unwrap();
+        // One physics step, plus the sample by which a resonator's output follows its force.
+        assert_eq!(r.measured_latency_samples, Some(201));
+        assert_eq!(r.late_steps, 0);
+        assert_eq!(r.dropped_events, 0);
+    }
 }

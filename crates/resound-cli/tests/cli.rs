@@ -1966,11 +1966,15 @@ fn bench_live_reports_callback_times_on_the_simulated_clock() {
     let v: Value = serde_json::from_str(&out).unwrap();
     let main = &v["main"];
     assert_eq!(main["bodies"], 4);
-    // 0.5 s of 256-sample blocks at 48 kHz; every body struck every 50 ms, one rubbing.
+    // 0.5 s of 256-sample blocks at 48 kHz; every body struck every 50 ms, one rubbing at
+    // every 200-sample physics step the frontend ran (120, one block ahead).
     assert_eq!(main["clock"]["callbacks"], 94);
     let events = main["events"].as_u64().unwrap();
-    assert!((4 * 10 + 94..=4 * 11 + 94).contains(&events), "{v}");
+    assert!((4 * 10 + 120..=4 * 11 + 121).contains(&events), "{v}");
     assert_eq!(main["dropped_events"], 0);
+    assert_eq!(main["late_steps"], 0);
+    // One physics step, plus the sample by which a resonator's output follows its force.
+    assert_eq!(main["measured_latency_samples"], 201);
     let (p50, p99) = (
         main["clock"]["p50_share"].as_f64().unwrap(),
         main["clock"]["p99_share"].as_f64().unwrap(),

@@ -413,6 +413,7 @@ impl StepContacts {
 /// [`Excitation`]s with the force models of `resound_synth::contact`.
 struct ContactTracker {
     active: HashMap<(u32, u32), PairState>,
+    spare: HashMap<(u32, u32), PairState>,
     profile: Profile,
     radii: Vec<f64>,
     dt: f64,
@@ -436,7 +437,9 @@ impl ContactTracker {
     ) {
         let (dt, fs) = (self.dt, self.fs);
         out.continuous.iter_mut().for_each(|c| *c = None);
-        let mut now_active: HashMap<(u32, u32), PairState> = HashMap::new();
+        // Last step's map, emptied: its capacity is reused.
+        let mut now_active = std::mem::take(&mut self.spare);
+        now_active.clear();
         for pair in world.narrow_phase.contact_pairs() {
             let PairContacts::Rigid(r) = &pair.contacts else {
                 continue;
@@ -498,7 +501,8 @@ impl ContactTracker {
                 ),
             };
             let approach = f64::from((vel_at(i1, false) - vel_at(i2, false)).dot(normal));
-            let names = [bodies[i1].name.clone(), bodies[i2].name.clone()];
+            // Only logged contacts need the names (an allocation each).
+            let names = || [bodies[i1].name.clone(), bodies[i2].name.clone()];
             if !was_active {
                 state.last_kind = Some(ContactKind::Impact);
                 if approach > IMPACT_MIN_SPEED {
@@ -540,7 +544,7 @@ impl ContactTracker {
                     out.stats.impacts += 1;
                     out.events.push(Event {
                         time_s: t_contact,
-                        bodies: names.clone(),
+                        bodies: names(),
                         kind: ContactKind::Impact,
                         force: impulse,
                         speed_m_s: approach,
@@ -608,7 +612,7 @@ impl ContactTracker {
                     {
                         out.events.push(Event {
                             time_s: t,
-                            bodies: names.clone(),
+                            bodies: names(),
                             kind: ContactKind::Sliding,
                             force: normal_force,
                             speed_m_s: speed,
@@ -657,7 +661,7 @@ impl ContactTracker {
                     if state.last_kind != Some(kind) || t - state.last_log_s >= LOG_INTERVAL_S {
                         out.events.push(Event {
                             time_s: t,
-                            bodies: names.clone(),
+                            bodies: names(),
                             kind,
                             force: normal_force,
                             speed_m_s: speed,
@@ -672,7 +676,7 @@ impl ContactTracker {
             }
             now_active.insert(key, state);
         }
-        self.active = now_active;
+        self.spare = std::mem::replace(&mut self.active, now_active);
     }
 }
 
@@ -815,6 +819,7 @@ impl ScenePhysics {
             .collect();
         let tracker = ContactTracker {
             active: HashMap::new(),
+            spare: HashMap::new(),
             profile: Profile::fractal(1 << 17, 1.0, params.seed),
             radii: kept.iter().map(|b| contact_radius(&b.shape)).collect(),
             dt,

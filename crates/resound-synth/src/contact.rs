@@ -33,10 +33,19 @@ impl Profile {
         let profile = &self.0;
         let x = s * SAMPLES_PER_M;
         let n = profile.len();
-        let i = x.floor();
+        // floor() without SSE4.1 is a libm call; this is the same for every finite x.
+        let t = x as i64;
+        let t = if (t as f64) > x { t - 1 } else { t };
+        let i = t as f64;
         let f = (x - i) as f32;
-        let i = (i as i64).rem_euclid(n as i64) as usize;
-        let j = (i + 1) % n;
+        let (i, j) = if n.is_power_of_two() {
+            // Two's complement: the mask is the Euclidean remainder, without a division.
+            let i = (t as usize) & (n - 1);
+            (i, (i + 1) & (n - 1))
+        } else {
+            let i = t.rem_euclid(n as i64) as usize;
+            (i, (i + 1) % n)
+        };
         profile[i] + f * (profile[j] - profile[i])
     }
 
