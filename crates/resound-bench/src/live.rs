@@ -9,7 +9,7 @@
 //! quarter of them roll or slide (a step of noise force every step). The frontend's work is not
 //! timed: on a device it runs on the physics thread. The callback is.
 
-use resound_synth::scene_audio::{scene_audio, AudioStats, SceneAudioParams, Source};
+use resound_synth::scene_audio::{scene_audio, AudioStats, Governor, SceneAudioParams, Source};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -47,6 +47,10 @@ pub struct LiveRun {
     pub dropped_events: u64,
     /// Steps whose cues came after their start.
     pub late_steps: u64,
+    /// Voices faded out by the governor.
+    pub steals: u64,
+    /// Highest degradation level the governor reached.
+    pub degradation: u64,
     /// The first impact's sound onset after its contact instant, less the propagation delay,
     /// samples (the scheduled latency is one physics step, 200 samples, and a resonator's output
     /// follows its force by one sample).
@@ -70,6 +74,19 @@ fn body_modes(k: usize) -> Vec<(f64, f64)> {
 /// # Errors
 /// The audio side cannot be built (too many bodies).
 pub fn live_run(bodies: usize, seconds: f64, block: usize) -> Result<LiveRun, String> {
+    live_run_with(bodies, seconds, block, None)
+}
+
+/// [`live_run`] with the callback's overload `governor` (culling, then voice stealing).
+///
+/// # Errors
+/// The audio side cannot be built (too many bodies).
+pub fn live_run_with(
+    bodies: usize,
+    seconds: f64,
+    block: usize,
+    governor: Option<Governor>,
+) -> Result<LiveRun, String> {
     let fs = 48_000.0;
     let step = 200usize;
     let radius = 2.0;
@@ -97,7 +114,7 @@ pub fn live_run(bodies: usize, seconds: f64, block: usize) -> Result<LiveRun, St
         cull_level: 1e-7,
         cue_capacity: (ahead * (2 * bodies + 4)).next_power_of_two(),
         sample_capacity: ahead * (bodies * 16 + bodies.div_ceil(4) * step) + 1024,
-        governor: None,
+        governor,
     };
     let (mut tx, mut audio) = scene_audio(&params, sources).map_err(|e| e.to_string())?;
     let pulse: Vec<f32> = {
@@ -118,6 +135,7 @@ pub fn live_run(bodies: usize, seconds: f64, block: usize) -> Result<LiveRun, St
     let mut out = [vec![0.0f32; block], vec![0.0f32; block]];
     let mut times = Vec::with_capacity(blocks);
     let mut onset = None;
+    let mut max_degradation = 0;
     let first_contact = 0usize; // body 0 is struck at sample 0
     for k in 0..blocks {
         // The physics runs until its next step would end past the block after this one.
@@ -152,6 +170,7 @@ pub fn live_run(bodies: usize, seconds: f64, block: usize) -> Result<LiveRun, St
         let t0 = Instant::now();
         audio.process(&mut [&mut l[..], &mut r[..]]);
         times.push(t0.elapsed().as_secs_f64() * fs / block as f64);
+        max_degradation = max_degradation.max(AudioStats::get(&audio.stats().degradation));
         if onset.is_none() {
             if let Some(i) = l
                 .iter()
@@ -188,6 +207,8 @@ pub fn live_run(bodies: usize, seconds: f64, block: usize) -> Result<LiveRun, St
         events: AudioStats::get(&s.cues),
         dropped_events: AudioStats::get(&s.dropped),
         late_steps: AudioStats::get(&s.late_steps),
+        steals: AudioStats::get(&s.steals),
+        degradation: max_degradation,
         measured_latency_samples: onset.map(|o| o.saturating_sub(first_contact + propagation)),
     })
 }

@@ -715,6 +715,22 @@ fn run_live(a: LiveBenchArgs) -> Result<()> {
         }
         first_miss = Some(hi);
     }
+    // Overload: twice the first miss, with and without the governor.
+    let overload = match first_miss {
+        Some(miss) => {
+            let n = 2 * miss;
+            let plain = live_run(n, 5.0, a.block).map_err(anyhow::Error::msg)?;
+            let governed = crate::live::live_run_with(
+                n,
+                5.0,
+                a.block,
+                Some(resound::synth::scene_audio::Governor::default()),
+            )
+            .map_err(anyhow::Error::msg)?;
+            Some((plain, governed))
+        }
+        None => None,
+    };
     let bound = a.block + 200;
     if a.json {
         println!(
@@ -727,6 +743,7 @@ fn run_live(a: LiveBenchArgs) -> Result<()> {
                 "main": main,
                 "search": search,
                 "first_miss_bodies": first_miss,
+                "overload": overload.as_ref().map(|(p, g)| serde_json::json!({"without_governor": p, "with_governor": g})),
                 "contact_to_sound_latency_bound_samples": bound,
             }))?
         );
@@ -750,6 +767,12 @@ fn run_live(a: LiveBenchArgs) -> Result<()> {
             "no deadline miss up to {} bodies",
             search.last().map_or(a.bodies, |r| r.bodies)
         ),
+    }
+    if let Some((p, g)) = &overload {
+        println!(
+            "overload ({} bodies, 5 s): without the governor {} misses (p99 {:.2}); with it {} misses (p99 {:.2}), level {}, {} voices stolen",
+            p.bodies, p.clock.misses, p.clock.p99_share, g.clock.misses, g.clock.p99_share, g.degradation, g.steals
+        );
     }
     match main.measured_latency_samples {
         Some(l) => println!(

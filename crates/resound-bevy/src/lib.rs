@@ -35,6 +35,9 @@ pub struct ResoundPlugin {
     pub capture: bool,
     /// RMS rubbing force per newton of normal force and m/s of speed.
     pub roughness: f64,
+    /// With a device (`capture: false`): each frame's cues take effect this many samples after
+    /// the audio clock (at least a device block and a frame's jitter), samples.
+    pub latency_samples: u64,
 }
 
 impl Default for ResoundPlugin {
@@ -44,6 +47,7 @@ impl Default for ResoundPlugin {
             stereo: true,
             capture: true,
             roughness: 0.01,
+            latency_samples: 2048,
         }
     }
 }
@@ -116,6 +120,11 @@ pub struct AudioLink {
 #[derive(Resource, Clone)]
 struct Settings(ResoundPlugin);
 
+/// The PostStartup system set that builds the audio side: a system that takes the audio side
+/// to a device runs `.after(StartSet)`.
+#[derive(SystemSet, Debug, Clone, PartialEq, Eq, Hash)]
+pub struct StartSet;
+
 impl Plugin for ResoundPlugin {
     fn build(&self, app: &mut App) {
         app.insert_resource(Settings(self.clone()))
@@ -123,7 +132,7 @@ impl Plugin for ResoundPlugin {
                 sample_rate_hz: self.sample_rate_hz,
                 ..Default::default()
             })
-            .add_systems(PostStartup, start)
+            .add_systems(PostStartup, start.in_set(StartSet))
             .add_systems(PostUpdate, excite.after(PhysicsSet::Writeback));
     }
 }
@@ -211,7 +220,14 @@ fn excite(
     let Ok(st) = state.0.get_mut() else {
         return;
     };
-    st.tx.step(st.clock);
+    // Headless, the frames are the clock; with a device, the audio side's clock plus the
+    // latency (the frame's sound lands at one steady delay after it).
+    let start = if s.capture {
+        st.clock
+    } else {
+        st.tx.rendered() + s.latency_samples
+    };
+    st.tx.step(start);
     for (&e, &i) in &st.source_of {
         if let Ok((t, _)) = bodies.get(e) {
             st.tx.send(Cue::Place {
