@@ -9,28 +9,10 @@
 //! quarter of them roll or slide (a step of noise force every step). The frontend's work is not
 //! timed: on a device it runs on the physics thread. The callback is.
 
+pub use resound_synth::live::ClockReport;
 use resound_synth::scene_audio::{scene_audio, AudioStats, Governor, SceneAudioParams, Source};
 use serde::Serialize;
 use std::time::Instant;
-
-/// Callback times of one run, as shares of the block's deadline.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
-pub struct ClockReport {
-    /// Callbacks run.
-    pub callbacks: usize,
-    /// Block length, samples.
-    pub block: usize,
-    /// The deadline, s.
-    pub deadline_s: f64,
-    /// Median callback time over the deadline.
-    pub p50_share: f64,
-    /// 99th percentile.
-    pub p99_share: f64,
-    /// Largest.
-    pub max_share: f64,
-    /// Callbacks over their deadline.
-    pub misses: usize,
-}
 
 /// One run of the live benchmark.
 #[derive(Clone, Debug, Serialize)]
@@ -181,29 +163,12 @@ pub fn live_run_with(
             }
         }
     }
-    let misses = times.iter().filter(|&&t| t > 1.0).count();
-    let mut sorted = times.clone();
-    sorted.sort_by(f64::total_cmp);
-    let q = |p: f64| {
-        sorted
-            .get(((sorted.len() as f64 - 1.0) * p).round() as usize)
-            .copied()
-            .unwrap_or(0.0)
-    };
     let propagation = (radius / resound_synth::spatial::SPEED_OF_SOUND_M_S * fs).round() as usize;
     let s = audio.stats();
     Ok(LiveRun {
         bodies,
         seconds,
-        clock: ClockReport {
-            callbacks: blocks,
-            block,
-            deadline_s: block as f64 / fs,
-            p50_share: q(0.5),
-            p99_share: q(0.99),
-            max_share: sorted.last().copied().unwrap_or(0.0),
-            misses,
-        },
+        clock: ClockReport::from_shares(&times, block, fs),
         events: AudioStats::get(&s.cues),
         dropped_events: AudioStats::get(&s.dropped),
         late_steps: AudioStats::get(&s.late_steps),

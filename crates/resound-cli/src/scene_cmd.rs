@@ -113,6 +113,9 @@ pub fn run(a: SceneArgs) -> Result<()> {
         keep_level: a.keep_level,
         live: None,
     };
+    if !(a.gain_db.is_finite() && a.gain_db.abs() <= 120.0) {
+        anyhow::bail!("--gain-db must be within ±120 dB, got {}", a.gain_db);
+    }
     if a.live {
         return crate::live::play_scene(&a.scene, &params, a.block as usize, a.gain_db);
     }

@@ -242,7 +242,7 @@ pub fn render_live(
             let end = ((k + 1) * block) as u64;
             match live.pacing {
                 Pacing::Lockstep => {
-                    while frontier.load(Ordering::Acquire) <= end {
+                    while frontier.load(Ordering::Acquire) <= end && !handle.is_finished() {
                         std::thread::yield_now();
                     }
                 }
@@ -276,21 +276,14 @@ pub fn render_live(
     for c in &mut channels {
         c.truncate(total);
     }
-    let mut sorted = times.clone();
-    sorted.sort_by(f64::total_cmp);
-    let q = |p: f64| {
-        sorted
-            .get(((sorted.len() as f64 - 1.0) * p).round() as usize)
-            .copied()
-            .unwrap_or(0.0)
-    };
+    let clock = resound_synth::live::ClockReport::from_shares(&times, block, fs);
     let report = LiveReport {
         block,
         latency_samples: latency,
         callbacks: AudioStats::get(&stats.callbacks),
-        p50_share: q(0.5),
-        p99_share: q(0.99),
-        max_share: sorted.last().copied().unwrap_or(0.0),
+        p50_share: clock.p50_share,
+        p99_share: clock.p99_share,
+        max_share: clock.max_share,
         xruns: AudioStats::get(&stats.xruns),
         late_steps: AudioStats::get(&stats.late_steps),
         dropped_cues: AudioStats::get(&stats.dropped),

@@ -249,6 +249,30 @@ pub struct ClockReport {
     pub misses: usize,
 }
 
+impl ClockReport {
+    /// Summarises callback times given as shares of the deadline of `block` samples at
+    /// `sample_rate_hz`.
+    pub fn from_shares(shares: &[f64], block: usize, sample_rate_hz: f64) -> Self {
+        let mut sorted = shares.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        let q = |p: f64| {
+            sorted
+                .get(((sorted.len() as f64 - 1.0) * p).round() as usize)
+                .copied()
+                .unwrap_or(0.0)
+        };
+        Self {
+            callbacks: shares.len(),
+            block,
+            deadline_s: block as f64 / sample_rate_hz,
+            p50_share: q(0.5),
+            p99_share: q(0.99),
+            max_share: sorted.last().copied().unwrap_or(0.0),
+            misses: shares.iter().filter(|&&t| t > 1.0).count(),
+        }
+    }
+}
+
 /// A device stand-in: calls the backend block after block, as a driver would, and times it.
 pub struct SimulatedClock {
     /// Samples per callback.
@@ -282,23 +306,6 @@ impl SimulatedClock {
             times.push(dt / deadline_s);
             sink(k, &buf);
         }
-        let misses = times.iter().filter(|&&t| t > 1.0).count();
-        let mut sorted = times.clone();
-        sorted.sort_by(f64::total_cmp);
-        let q = |p: f64| {
-            sorted
-                .get(((sorted.len() as f64 - 1.0) * p).round() as usize)
-                .copied()
-                .unwrap_or(0.0)
-        };
-        ClockReport {
-            callbacks: blocks,
-            block: self.block,
-            deadline_s,
-            p50_share: q(0.5),
-            p99_share: q(0.99),
-            max_share: sorted.last().copied().unwrap_or(0.0),
-            misses,
-        }
+        ClockReport::from_shares(&times, self.block, self.sample_rate_hz)
     }
 }
