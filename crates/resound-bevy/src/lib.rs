@@ -38,6 +38,11 @@ pub struct ResoundPlugin {
     /// With a device (`capture: false`): each frame's cues take effect this many samples after
     /// the audio clock (at least a device block and a frame's jitter), samples.
     pub latency_samples: u64,
+    /// Spare sources for bodies that get a [`Sounding`] after start-up (spawned objects); a
+    /// despawned body's source is reused.
+    pub spare_sources: usize,
+    /// Modes a spare source holds (a later [`Sounding`] with more keeps its loudest this many).
+    pub spare_modes: usize,
 }
 
 impl Default for ResoundPlugin {
@@ -48,6 +53,8 @@ impl Default for ResoundPlugin {
             capture: true,
             roughness: 0.01,
             latency_samples: 2048,
+            spare_sources: 32,
+            spare_modes: 64,
         }
     }
 }
@@ -84,7 +91,58 @@ impl Sounding {
     }
 }
 
-/// The entity whose position the sound is heard from (the first one found at start-up).
+impl Sounding {
+    /// The modes of `model` in the material `reference` names, with the gains at surface
+    /// vertex `vertex`: a library entry (`library`: a library file, `None` the default one),
+    /// a material file (`.json`), `preset:NAME` or a built-in name, as `resound scene` reads
+    /// them.
+    ///
+    /// # Errors
+    /// Unknown references, unreadable files or libraries, invalid materials.
+    pub fn from_reference(
+        model: &resound::core::ModalModel,
+        reference: &str,
+        library: Option<&std::path::Path>,
+        vertex: usize,
+        sample_rate_hz: f64,
+    ) -> resound::Result<Self> {
+        let lib = resound::material::read_library(library)?;
+        let material = resound::material::resolve_material(
+            reference,
+            std::path::Path::new("."),
+            lib.as_ref(),
+        )?;
+        Ok(Self::from_material(
+            model,
+            &material,
+            vertex,
+            sample_rate_hz,
+        ))
+    }
+
+    /// One draw (`seed`) of mode statistics (fitted with `resound stats fit` or imported from
+    /// PyImpact): the modes of a struck object of that kind, with no mesh. The gains are the
+    /// statistics' amplitudes per reference impulse.
+    ///
+    /// # Errors
+    /// Statistics that cannot be sampled.
+    pub fn from_statistics(
+        stats: &resound::stats::ModeStatistics,
+        seed: u64,
+    ) -> resound::Result<Self> {
+        let modes = stats.sample(seed)?;
+        let bank = resound::synth::render::bank_modes(&modes);
+        Ok(Self {
+            modes: bank.iter().map(|m| (m.freq_hz, m.damping_per_s)).collect(),
+            gains: bank
+                .iter()
+                .map(|m| (m.gain / resound::synth::render::REFERENCE_IMPULSE_N_S) as f32)
+                .collect(),
+        })
+    }
+}
+
+/// The entity whose position the sound is heard from (the first one found; read every frame).
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct Listener;
 
@@ -110,6 +168,12 @@ pub struct AudioLink {
     /// The audio side (taken by a device callback when `capture` is off).
     pub audio: Option<SceneAudio>,
     source_of: HashMap<Entity, u32>,
+    /// Sources free for bodies that start sounding later, with the modes each holds.
+    free: Vec<(u32, usize)>,
+    /// Modes each source holds.
+    capacity: Vec<usize>,
+    /// Bodies that found no free source (reported once each).
+    unheard: HashSet<Entity>,
     touching: HashSet<(Entity, Entity)>,
     clock: u64,
     pulse: Vec<f32>,
@@ -159,12 +223,22 @@ fn start(
             grains: None,
             position: t.translation.to_array().map(f64::from),
         });
-        commands.entity(e).insert((
-            ActiveEvents::CONTACT_FORCE_EVENTS,
-            ContactForceEventThreshold(0.0),
-            Velocity::default(),
-        ));
+        listen(&mut commands, e);
     }
+    // Spare sources: silent until a Sound cue gives them a later body's modes.
+    let spare = s.spare_modes.max(1);
+    let mut free = Vec::new();
+    for _ in 0..s.spare_sources {
+        free.push((sources.len() as u32, spare));
+        sources.push(Source {
+            modes: vec![(1000.0, 1000.0); spare],
+            gains: vec![0.0; spare],
+            grains: None,
+            position: [0.0; 3],
+        });
+    }
+    free.reverse();
+    let capacity = sources.iter().map(|s| s.modes.len()).collect();
     let params = SceneAudioParams {
         sample_rate_hz: s.sample_rate_hz,
         stereo: s.stereo,
@@ -184,6 +258,9 @@ fn start(
                 tx,
                 audio: Some(audio),
                 source_of,
+                free,
+                capacity,
+                unheard: HashSet::new(),
                 touching: HashSet::new(),
                 clock: 0,
                 pulse: vec![0.0; (fs * 5e-4).round().max(1.0) as usize],
@@ -195,15 +272,44 @@ fn start(
     }
 }
 
-/// After rapier's step: impacts and rubbing from the contact forces, positions, and (headless)
-/// the frame's samples.
+/// Asks rapier for a sounding body's contact forces and velocity.
+fn listen(commands: &mut Commands, e: Entity) {
+    commands.entity(e).insert((
+        ActiveEvents::CONTACT_FORCE_EVENTS,
+        ContactForceEventThreshold(0.0),
+        Velocity::default(),
+    ));
+}
+
+/// The loudest `n` of a sounding's modes (by gain), in their order.
+fn loudest(snd: &Sounding, n: usize) -> (Vec<(f64, f64)>, Vec<f32>) {
+    let m = snd.modes.len().min(snd.gains.len());
+    let mut idx: Vec<usize> = (0..m).collect();
+    if m > n {
+        idx.sort_by(|&a, &b| snd.gains[b].abs().total_cmp(&snd.gains[a].abs()));
+        idx.truncate(n);
+        idx.sort_unstable();
+    }
+    (
+        idx.iter().map(|&i| snd.modes[i]).collect(),
+        idx.iter().map(|&i| snd.gains[i]).collect(),
+    )
+}
+
+/// After rapier's step: bodies that started or stopped sounding, the listener, impacts and
+/// rubbing from the contact forces, positions, and (headless) the frame's samples.
+#[allow(clippy::too_many_arguments)]
 fn excite(
+    mut commands: Commands,
     settings: Res<Settings>,
     time: Res<Time>,
     state: Option<ResMut<ResoundAudio>>,
     mut output: ResMut<ResoundOutput>,
     mut forces: MessageReader<ContactForceEvent>,
     bodies: Query<(&Transform, Option<&Velocity>)>,
+    added: Query<(Entity, &Sounding), Added<Sounding>>,
+    mut removed: RemovedComponents<Sounding>,
+    listener: Query<&Transform, With<Listener>>,
 ) {
     let Some(mut state) = state else {
         forces.clear();
@@ -228,6 +334,38 @@ fn excite(
         st.tx.rendered() + s.latency_samples
     };
     st.tx.step(start);
+    // A body that lost its Sounding (or was despawned) frees its source, silenced.
+    for e in removed.read() {
+        if let Some(i) = st.source_of.remove(&e) {
+            st.tx.sound(i as usize, &[], &[]);
+            let cap = st.capacity[i as usize];
+            st.free.push((i, cap));
+        }
+    }
+    for (e, snd) in &added {
+        if st.source_of.contains_key(&e) {
+            continue;
+        }
+        // The free source holding the most modes.
+        let Some(k) = (0..st.free.len()).max_by_key(|&k| st.free[k].1) else {
+            if st.unheard.insert(e) {
+                eprintln!(
+                    "resound: no spare source left for {e:?}; it stays silent (raise spare_sources)"
+                );
+            }
+            continue;
+        };
+        let (i, cap) = st.free.swap_remove(k);
+        let (modes, gains) = loudest(snd, cap);
+        st.tx.sound(i as usize, &modes, &gains);
+        st.source_of.insert(e, i);
+        listen(&mut commands, e);
+    }
+    if let Some(t) = listener.iter().next() {
+        st.tx.send(Cue::Listener {
+            position: t.translation.to_array(),
+        });
+    }
     for (&e, &i) in &st.source_of {
         if let Ok((t, _)) = bodies.get(e) {
             st.tx.send(Cue::Place {
@@ -352,17 +490,25 @@ pub mod drop_scene {
         ));
         world.spawn((Transform::from_xyz(0.0, 0.5, 0.3), Listener));
         for (i, &h) in heights.iter().enumerate() {
-            world.spawn((
-                Transform::from_xyz(-0.3 + 0.3 * i as f32, h + BAR[1], 0.0),
+            spawn_bar(world, sound, -0.3 + 0.3 * i as f32, h);
+        }
+        app.finish();
+        app
+    }
+
+    /// Spawns a bar of `sound` with its lowest face `h` m above the table at `x` (m), before
+    /// or while the app runs.
+    pub fn spawn_bar(world: &mut World, sound: &Sounding, x: f32, h: f32) -> Entity {
+        world
+            .spawn((
+                Transform::from_xyz(x, h + BAR[1], 0.0),
                 RigidBody::Dynamic,
                 Collider::cuboid(BAR[0], BAR[1], BAR[2]),
                 ColliderMassProperties::Density(2700.0),
                 Restitution::coefficient(0.3),
                 sound.clone(),
-            ));
-        }
-        app.finish();
-        app
+            ))
+            .id()
     }
 
     /// The headless example: the material of `recording` (first strike, 100 Hz high-pass) is

@@ -102,3 +102,87 @@ fn the_headless_example_estimates_a_material_and_writes_a_readable_wav() {
     assert!((peak - 0.891).abs() < 0.01, "peak {peak}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// Zero crossings per second over `x` (a pure tone: twice its frequency).
+fn tone_hz(x: &[f32], fs: f64) -> f64 {
+    let n = x
+        .windows(2)
+        .filter(|w| (w[0] < 0.0) != (w[1] < 0.0))
+        .count();
+    0.5 * n as f64 * fs / x.len() as f64
+}
+
+/// One bar at rest from the start; after 1 s a bar of one 1500 Hz mode is spawned 0.3 m up,
+/// with the listener at `listener`. Returns the mono mix and the spawned bar's impact time.
+fn spawn_run(listener: [f32; 3]) -> (Vec<f32>, f64, f64) {
+    use bevy::prelude::{Transform, With};
+    let mut app = drop_scene::app(&sound(), &[0.0]);
+    let out = drop_scene::run(&mut app, 1.0);
+    let before = out.impacts.len();
+    {
+        let world = app.world_mut();
+        let mut q = world.query_filtered::<&mut Transform, With<resound_bevy::Listener>>();
+        for mut t in q.iter_mut(world) {
+            t.translation = listener.into();
+        }
+    }
+    let bell = Sounding {
+        modes: vec![(1500.0, 4.0)],
+        gains: vec![0.05],
+    };
+    drop_scene::spawn_bar(app.world_mut(), &bell, 0.3, 0.3);
+    let out = drop_scene::run(&mut app, 1.0);
+    let fs = out.sample_rate_hz;
+    let hit = out.impacts[before..]
+        .iter()
+        .map(|i| i.0)
+        .find(|&t| t > 1.0)
+        .expect("the spawned bar's impact");
+    let mix = out.channels[0]
+        .iter()
+        .zip(&out.channels[1])
+        .map(|(a, b)| a + b)
+        .collect();
+    (mix, hit, fs)
+}
+
+#[test]
+fn a_body_spawned_while_running_sounds_at_its_impact_and_the_listener_is_followed() {
+    let near = [0.3f32, 0.5, 0.3];
+    let (mix, hit, fs) = spawn_run(near);
+    // It falls 0.3 m from t ≈ 1 s: it lands √(2h/g) = 0.25 s later.
+    let fall = (2.0 * 0.3f64 / 9.81).sqrt();
+    assert!(
+        (hit - 1.0 - fall).abs() < 3.0 / drop_scene::FPS,
+        "spawned bar lands at {hit} s"
+    );
+    let k = (hit * fs) as usize;
+    let frame = (fs / drop_scene::FPS) as usize;
+    let quiet = rms(&mix[k - 3 * frame..k - frame]);
+    let ring = &mix[k + frame..k + 7 * frame];
+    assert!(rms(ring) > 100.0 * quiet, "{} vs {quiet}", rms(ring));
+    // Its own pitch: the spawned source took the new modes, not the first bar's 820 Hz (the
+    // rebounds' pulses add a few crossings: within 5 %).
+    let f = tone_hz(ring, fs);
+    assert!((f / 1500.0 - 1.0).abs() < 0.05, "{f} Hz");
+    // The same run heard from 4× the distance (moved before the spawn): a quarter the level.
+    let rest = [0.3f64, 0.015, 0.0];
+    let dist = |l: [f32; 3]| {
+        (0..3)
+            .map(|c| (f64::from(l[c]) - rest[c]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let d_near = dist(near);
+    let far = [0.3f32, 0.015 + (4.0 * d_near) as f32, 0.0];
+    let (mix_far, hit_far, _) = spawn_run(far);
+    assert!((hit_far - hit).abs() < 1e-9);
+    let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let kf = (hit_far * fs) as usize;
+    let ratio = f64::from(peak(&mix[k..k + 10 * frame]) / peak(&mix_far[kf..kf + 20 * frame]));
+    let want = dist(far) / d_near;
+    assert!(
+        (ratio / want - 1.0).abs() < 0.1,
+        "near/far {ratio}, 1/r says {want}"
+    );
+}

@@ -8,10 +8,11 @@ use resound_grains::Contact;
 use resound_synth::contact::{ContactForce, Profile, ROUGHNESS};
 use resound_synth::excitation::{ContactModel, Impact};
 use resound_synth::scene_audio::{
-    scene_audio, AudioStats, Cue, CueSender, SceneAudioParams, Source,
+    scene_audio, AudioStats, Cue, CueSender, SceneAudio, SceneAudioParams, Source,
 };
 use serde::Serialize;
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Approach speed below which a new contact is not an impact, m/s.
 const IMPACT_MIN_SPEED: f64 = 0.02;
@@ -333,26 +334,33 @@ impl VertexGrid {
     fn nearest(&self, vertices: &[[f64; 3]], p: [f64; 3]) -> usize {
         let c = self.cell_of(p);
         let mut best = (f64::INFINITY, 0usize);
+        let visit = |best: &mut (f64, usize), x: usize, y: usize, z: usize| {
+            let k = self.index([x, y, z]);
+            for &i in &self.items[self.start[k] as usize..self.start[k + 1] as usize] {
+                let v = vertices[i as usize];
+                let dd = (v[0] - p[0]).powi(2) + (v[1] - p[1]).powi(2) + (v[2] - p[2]).powi(2);
+                if dd < best.0 || (dd == best.0 && (i as usize) < best.1) {
+                    *best = (dd, i as usize);
+                }
+            }
+        };
         let max_r = self.dims.iter().copied().max().unwrap_or(1);
         for r in 0..=max_r {
             let lo = [0, 1, 2].map(|k| c[k].saturating_sub(r));
             let hi = [0, 1, 2].map(|k| (c[k] + r).min(self.dims[k] - 1));
             for z in lo[2]..=hi[2] {
                 for y in lo[1]..=hi[1] {
-                    for x in lo[0]..=hi[0] {
-                        let d = [x.abs_diff(c[0]), y.abs_diff(c[1]), z.abs_diff(c[2])];
-                        if d.iter().copied().max().unwrap_or(0) != r {
-                            continue;
+                    // The shell's cells only: a whole row on its faces, else the row's ends.
+                    if r == 0 || z.abs_diff(c[2]) == r || y.abs_diff(c[1]) == r {
+                        for x in lo[0]..=hi[0] {
+                            visit(&mut best, x, y, z);
                         }
-                        let k = self.index([x, y, z]);
-                        for &i in &self.items[self.start[k] as usize..self.start[k + 1] as usize] {
-                            let v = vertices[i as usize];
-                            let dd = (v[0] - p[0]).powi(2)
-                                + (v[1] - p[1]).powi(2)
-                                + (v[2] - p[2]).powi(2);
-                            if dd < best.0 || (dd == best.0 && (i as usize) < best.1) {
-                                best = (dd, i as usize);
-                            }
+                    } else {
+                        if c[0] >= r {
+                            visit(&mut best, c[0] - r, y, z);
+                        }
+                        if c[0] + r < self.dims[0] {
+                            visit(&mut best, c[0] + r, y, z);
                         }
                     }
                 }
@@ -990,6 +998,15 @@ impl ScenePhysics {
         arr(self.world.bodies[self.handles[body]].translation())
     }
 
+    /// Dynamic bodies rapier has not put to sleep.
+    pub fn awake_bodies(&self) -> usize {
+        self.world
+            .bodies
+            .iter()
+            .filter(|(_, rb)| rb.is_dynamic() && !rb.is_sleeping())
+            .count()
+    }
+
     /// The event log so far.
     pub fn events(&self) -> &[Event] {
         &self.out.events
@@ -1014,28 +1031,73 @@ pub fn simulate(
     params: &SceneParams,
     progress: &dyn Fn(f64),
 ) -> Result<SceneOutput, SceneError> {
-    let (mut physics, sources) = ScenePhysics::new(bodies, params, 0)?;
+    let (mut physics, mut sources) = ScenePhysics::new(bodies, params, 0)?;
+    // With a second core the audio side renders step k while the physics computes step k + 1
+    // (the queues hold both); the cues and their order are the same, so the samples are the
+    // same as rendering in turn.
+    let pipelined = std::thread::available_parallelism().map_or(1, usize::from) > 1;
+    if pipelined {
+        sources.params.cue_capacity =
+            (sources.params.cue_capacity * PIPELINE_AHEAD).next_power_of_two();
+        sources.params.sample_capacity *= PIPELINE_AHEAD;
+    }
     let (mut tx, mut audio) = scene_audio(&sources.params, sources.sources)?;
     let total = physics.total_samples();
     let mut channels = vec![vec![0.0f32; total]; audio.channels()];
     let steps = physics.steps();
-    let mut audio_s = 0.0;
-    let mut last_progress = 0.0;
-    for step in 0..steps {
-        let (s0, s1) = physics.step(&mut tx);
+    let spans: Vec<(usize, usize)> = (0..steps).map(|k| physics.step_span(k)).collect();
+    let render = |audio: &mut SceneAudio, channels: &mut [Vec<f32>], (s0, s1): (usize, usize)| {
         let ta = std::time::Instant::now();
-        match channels.as_mut_slice() {
+        match channels {
             [a] => audio.process(&mut [&mut a[s0..s1]]),
             [a, b] => audio.process(&mut [&mut a[s0..s1], &mut b[s0..s1]]),
             _ => {}
         }
-        audio_s += ta.elapsed().as_secs_f64();
+        ta.elapsed().as_secs_f64()
+    };
+    let mut last_progress = 0.0;
+    let mut report = |step: usize| {
         let frac = (step + 1) as f64 / steps as f64;
         if frac - last_progress >= 0.01 {
             progress(frac);
             last_progress = frac;
         }
-    }
+    };
+    let audio_s = if pipelined {
+        let sent = AtomicUsize::new(0);
+        let rendered = AtomicUsize::new(0);
+        std::thread::scope(|scope| {
+            let audio_thread = scope.spawn(|| {
+                let mut audio_s = 0.0;
+                for (k, &span) in spans.iter().enumerate() {
+                    while sent.load(Ordering::Acquire) <= k {
+                        std::thread::park_timeout(std::time::Duration::from_micros(200));
+                    }
+                    audio_s += render(&mut audio, &mut channels, span);
+                    rendered.store(k + 1, Ordering::Release);
+                }
+                audio_s
+            });
+            for step in 0..steps {
+                while step >= rendered.load(Ordering::Acquire) + PIPELINE_AHEAD {
+                    std::thread::yield_now();
+                }
+                physics.step(&mut tx);
+                sent.store(step + 1, Ordering::Release);
+                audio_thread.thread().unpark();
+                report(step);
+            }
+            audio_thread.join().unwrap_or(0.0)
+        })
+    } else {
+        let mut audio_s = 0.0;
+        for step in 0..steps {
+            physics.step(&mut tx);
+            audio_s += render(&mut audio, &mut channels, spans[step]);
+            report(step);
+        }
+        audio_s
+    };
     let dropped = AudioStats::get(&audio.stats().dropped);
     if dropped > 0 {
         return Err(SceneError::Setting(format!(
@@ -1052,6 +1114,10 @@ pub fn simulate(
         stats,
     })
 }
+
+/// Steps in the queues at once in an offline run on two cores: the one being rendered and the
+/// one being simulated.
+const PIPELINE_AHEAD: usize = 2;
 
 /// The force pulse of an impact between bodies `pair` approaching at `approach` m/s: Hertz's
 /// shape for their materials, reduced mass and the smaller contact radius, scaled to carry

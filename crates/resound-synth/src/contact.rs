@@ -107,19 +107,21 @@ impl ContactForce {
         let a = (-std::f64::consts::TAU * fc / fs).exp();
         let rot0 = (self.path_m / roll_radius_m).sin();
         let rot1 = ((self.path_m + speed_m_s * n as f64 / fs) / roll_radius_m).sin();
+        let level = ROUGHNESS / 3.0 * normal_force_n * speed_m_s * 8.0;
+        let d_rot = (rot1 - rot0) / n.max(1) as f64;
+        let ds = speed_m_s / fs;
+        let (mut l0, mut l1) = (self.lowpass[0], self.lowpass[1]);
         for (k, f) in out.iter_mut().enumerate() {
-            self.path_m += speed_m_s / fs;
-            let x = f64::from(profile.at(self.path_m + self.offset_m));
-            self.lowpass[0] = a * self.lowpass[0] + (1.0 - a) * x;
-            self.lowpass[1] = a * self.lowpass[1] + (1.0 - a) * self.lowpass[0];
-            let rotation = rot0 + (rot1 - rot0) * k as f64 / n.max(1) as f64;
-            *f = (ROUGHNESS / 3.0
-                * normal_force_n
-                * speed_m_s
-                * 8.0
-                * self.lowpass[1]
-                * (1.0 + 0.5 * rotation)) as f32;
+            // The same path as adding `ds` each sample, without the serial dependency.
+            let path = self.path_m + ds * (k + 1) as f64;
+            let x = f64::from(profile.at(path + self.offset_m));
+            l0 += (1.0 - a) * (x - l0);
+            l1 += (1.0 - a) * (l0 - l1);
+            let rotation = rot0 + d_rot * k as f64;
+            *f = (level * l1 * (1.0 + 0.5 * rotation)) as f32;
         }
+        self.lowpass = [l0, l1];
+        self.path_m += ds * n as f64;
     }
 
     /// Scraping a textured `surface` (Traer eq. 8: probe mass 0.1 g, shear coefficient

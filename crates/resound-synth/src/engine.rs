@@ -306,6 +306,23 @@ impl Engine {
         len
     }
 
+    /// Gives voice `id` new modes (at most the voice's capacity), silent until its next
+    /// excitation; forces already scheduled are dropped. False if the voice is gone or the
+    /// modes do not fit. Never allocates.
+    pub fn reconfigure(&mut self, id: VoiceId, modes: &[BankMode]) -> bool {
+        if !self.is_alive(id) {
+            return false;
+        }
+        let v = &mut self.voices[id.slot];
+        if v.bank.configure(modes).is_err() {
+            return false;
+        }
+        v.pending = 0;
+        v.force.iter_mut().for_each(|f| *f = 0.0);
+        v.fading = false;
+        true
+    }
+
     /// Changes a voice's per-mode gains (a moving contact).
     pub fn set_gains(&mut self, id: VoiceId, gains: &[f64]) -> bool {
         if !self.is_alive(id) {

@@ -33,10 +33,10 @@ pub fn render_strike(
 ) -> Result<Vec<f32>, SynthError> {
     let mut bank = ModalBank::new(sample_rate_hz, modes, 0.0)?;
     let mut out = vec![0.0f32; samples];
-    let mut x = vec![0.0f32; samples];
     let n = force.len().min(samples);
-    x[..n].copy_from_slice(&force[..n]);
-    bank.process(&x, &mut out);
+    let (head, tail) = out.split_at_mut(n);
+    bank.process(&force[..n], head);
+    bank.ring(tail);
     Ok(out)
 }
 

@@ -134,6 +134,20 @@ pub enum Cue {
         /// The contact, or none.
         contact: Option<(Contact, f64, f64)>,
     },
+    /// The listener is now here (m).
+    Listener {
+        /// Position, m.
+        position: [f32; 3],
+    },
+    /// A source takes new modes: `modes` triples (frequency Hz, decay rate 1/s, gain per N·s
+    /// at one point) in the sample queue; at most the modes the source was built with (its
+    /// voice's capacity). Zero modes silence it. See [`CueSender::sound`].
+    Sound {
+        /// Source index.
+        source: u32,
+        /// Modes (triples in the sample queue).
+        modes: u32,
+    },
 }
 
 /// Counters shared by both sides (relaxed atomics: statistics only).
@@ -227,6 +241,35 @@ impl CueSender {
         })
     }
 
+    /// Gives `source` new modes `(frequency Hz, decay rate 1/s)` with `gains` (per N·s at one
+    /// point): a body that starts sounding after the audio side was built (a spawned game
+    /// object) takes a spare source. False (dropped) when a queue is full.
+    pub fn sound(&mut self, source: usize, modes: &[(f64, f64)], gains: &[f32]) -> bool {
+        let m = modes.len().min(gains.len());
+        if self.cues.slots() == 0 || self.samples.slots() < 3 * m {
+            AudioStats::bump(&self.stats.dropped);
+            return false;
+        }
+        match self.samples.write_chunk_uninit(3 * m) {
+            Ok(chunk) => {
+                chunk.fill_from_iter(
+                    modes
+                        .iter()
+                        .zip(gains)
+                        .flat_map(|(&(f, d), &g)| [f as f32, d as f32, g]),
+                );
+            }
+            Err(_) => {
+                AudioStats::bump(&self.stats.dropped);
+                return false;
+            }
+        }
+        self.send(Cue::Sound {
+            source: source as u32,
+            modes: m as u32,
+        })
+    }
+
     /// Samples the backend has rendered (its clock).
     pub fn rendered(&self) -> u64 {
         AudioStats::get(&self.stats.rendered)
@@ -257,6 +300,8 @@ pub struct SceneAudio {
     samples: rtrb::Consumer<f32>,
     stats: Arc<AudioStats>,
     scratch: Vec<f32>,
+    /// Modes of a `Sound` cue (capacity: a voice's modes).
+    bank: Vec<BankMode>,
     max_block: usize,
     sample_rate_hz: f64,
     clock: u64,
@@ -339,7 +384,8 @@ pub fn scene_audio(
     let (ctx, crx) = rtrb::RingBuffer::new(params.cue_capacity);
     let (stx, srx) = rtrb::RingBuffer::new(params.sample_capacity.max(1));
     let stats = Arc::new(AudioStats::default());
-    let gains = vec![0.0; engine.params().modes_per_voice];
+    let modes_per_voice = engine.params().modes_per_voice;
+    let gains = vec![0.0; modes_per_voice];
     Ok((
         CueSender {
             cues: ctx,
@@ -359,6 +405,7 @@ pub fn scene_audio(
             samples: srx,
             stats,
             scratch: vec![0.0; params.max_block],
+            bank: Vec::with_capacity(modes_per_voice),
             max_block: params.max_block,
             sample_rate_hz: params.sample_rate_hz,
             clock: 0,
@@ -473,7 +520,7 @@ impl SceneAudio {
                 let i = source as usize;
                 let id = self.voices.get(i).copied().flatten();
                 let ok = match id {
-                    Some(id) => {
+                    Some(id) if self.modes[i] > 0 => {
                         let m = self.modes[i];
                         let table = &self.tables[i];
                         let k = (vertex as usize).min(table.len() / m - 1);
@@ -489,7 +536,41 @@ impl SceneAudio {
                         }
                         true
                     }
-                    None => false,
+                    _ => false,
+                };
+                chunk.commit_all();
+                ok
+            }
+            Cue::Listener { position } => self.spatializer.set_listener(position.map(f64::from)),
+            Cue::Sound { source, modes } => {
+                let m = modes as usize;
+                let Ok(chunk) = self.samples.read_chunk(3 * m) else {
+                    return false;
+                };
+                let i = source as usize;
+                let ok = match self.voices.get(i).copied().flatten() {
+                    Some(id)
+                        if m <= self.engine.params().modes_per_voice
+                            && m <= self.tables[i].capacity() =>
+                    {
+                        let (a, b) = chunk.as_slices();
+                        let mut values = a.iter().chain(b).copied();
+                        self.bank.clear();
+                        self.tables[i].clear();
+                        while let (Some(f), Some(d), Some(g)) =
+                            (values.next(), values.next(), values.next())
+                        {
+                            self.bank.push(BankMode {
+                                freq_hz: f64::from(f),
+                                damping_per_s: f64::from(d),
+                                gain: f64::from(g),
+                            });
+                            self.tables[i].push(g);
+                        }
+                        self.modes[i] = m;
+                        self.engine.reconfigure(id, &self.bank)
+                    }
+                    _ => false,
                 };
                 chunk.commit_all();
                 ok

@@ -58,6 +58,17 @@ impl Spatializer {
         })
     }
 
+    /// Moves the listener to `position` (m) for the blocks placed from now on; false (and no
+    /// move) for a non-finite position.
+    pub fn set_listener(&mut self, position: [f64; 3]) -> bool {
+        if position.iter().all(|v| v.is_finite()) {
+            self.listener = position;
+            true
+        } else {
+            false
+        }
+    }
+
     /// Output channels.
     pub fn channels(&self) -> usize {
         self.rings.len()

@@ -159,3 +159,93 @@ fn the_simulated_clock_times_every_callback_and_sound_follows_the_events() {
     assert!(heard[..10 * 256].iter().all(|v| *v == 0.0));
     assert!(heard[10 * 256 + 1] != 0.0);
 }
+
+/// Mono, listener at the origin, one spare source 1 m away with `capacity` silent modes.
+fn spare_scene(
+    capacity: usize,
+) -> (
+    resound_synth::scene_audio::CueSender,
+    resound_synth::scene_audio::SceneAudio,
+) {
+    use resound_synth::scene_audio::{scene_audio, SceneAudioParams, Source};
+    let params = SceneAudioParams {
+        sample_rate_hz: 48_000.0,
+        stereo: false,
+        listener: [0.0; 3],
+        max_delay_s: 0.1,
+        max_block: 512,
+        force_capacity: 4096,
+        cull_level: 1e-9,
+        cue_capacity: 64,
+        sample_capacity: 4096,
+        governor: None,
+    };
+    let spare = Source {
+        modes: vec![(1000.0, 1000.0); capacity],
+        gains: vec![0.0; capacity],
+        grains: None,
+        position: [1.0, 0.0, 0.0],
+    };
+    scene_audio(&params, vec![spare]).unwrap()
+}
+
+/// Zero crossings per second of `x` over its second half (a pure tone: twice its frequency).
+fn crossings_hz(x: &[f32], fs: f64) -> f64 {
+    let h = &x[x.len() / 2..];
+    let n = h
+        .windows(2)
+        .filter(|w| (w[0] < 0.0) != (w[1] < 0.0))
+        .count();
+    0.5 * n as f64 * fs / h.len() as f64
+}
+
+#[test]
+fn a_spare_source_takes_new_modes_and_the_listener_moves_without_allocating() {
+    use resound_synth::scene_audio::Cue;
+    let fs = 48_000.0;
+    let (mut tx, mut audio) = spare_scene(4);
+    // Before any Sound cue, a force on the spare source is silent (its gains are zero).
+    tx.step(0);
+    tx.force(0, 0, &[1.0], 1.0, 0);
+    let mut quiet = vec![0.0f32; 4800];
+    assert_no_alloc(|| audio.process(&mut [&mut quiet]));
+    assert!(quiet.iter().all(|v| *v == 0.0));
+    // One 700 Hz mode, then a strike.
+    tx.step(4800);
+    assert!(tx.sound(0, &[(700.0, 2.0)], &[0.5]));
+    tx.force(0, 0, &[1.0], 1.0, 0);
+    let mut near = vec![0.0f32; 9600];
+    assert_no_alloc(|| audio.process(&mut [&mut near]));
+    let f = crossings_hz(&near, fs);
+    assert!((f - 700.0).abs() < 5.0, "{f} Hz");
+    // The same strike heard from 3 m instead of 1 m: a third of the level (1/r).
+    let (mut tx2, mut audio2) = spare_scene(4);
+    tx2.step(0);
+    assert!(tx2.send(Cue::Listener {
+        position: [-2.0, 0.0, 0.0]
+    }));
+    assert!(tx2.sound(0, &[(700.0, 2.0)], &[0.5]));
+    tx2.force(0, 0, &[1.0], 1.0, 0);
+    let mut far = vec![0.0f32; 9600];
+    assert_no_alloc(|| audio2.process(&mut [&mut far]));
+    let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let ratio = peak(&near) / peak(&far);
+    assert!((ratio - 3.0).abs() < 0.05, "near/far {ratio}");
+    // More modes than the source was built with are refused, and it keeps sounding as before.
+    tx.step(14_400);
+    assert!(tx.sound(0, &[(500.0, 1.0); 5], &[0.1; 5]));
+    let mut rest = vec![0.0f32; 480];
+    audio.process(&mut [&mut rest]);
+    assert!(audio.stats().rejected.load(Ordering::Relaxed) >= 1);
+    // Zero modes silence it: a later strike adds nothing.
+    tx.step(14_880);
+    assert!(tx.sound(0, &[], &[]));
+    tx.force(0, 0, &[1.0], 1.0, 0);
+    let mut after = vec![0.0f32; 4800];
+    audio.process(&mut [&mut after]);
+    assert!(
+        peak(&after[2400..]) < 1e-3 * peak(&near),
+        "{}",
+        peak(&after[2400..])
+    );
+}
