@@ -113,7 +113,7 @@ fn play(world: &mut World) {
         return;
     };
     match open(audio) {
-        Ok(stream) => world.insert_non_send_resource(Playing(stream)),
+        Ok(stream) => world.insert_non_send(Playing(stream)),
         Err(e) => error!("resound: no sound: {e}"),
     }
 }
