@@ -26,7 +26,7 @@
 //!   physics steps.
 //!
 //! **Event flow**, per step: the contact tracker classifies rapier's contact pairs and emits
-//! typed [`Excitation`]s (body, contact point, normal, kind, force profile with its scale and
+//! typed [`Excitation`]s (the two bodies, contact point, normal, kind, force profile with its scale and
 //! start within the step); the force models are `resound_synth::contact` (sliding, rolling,
 //! scraping) and `resound_synth::excitation` (Hertz impacts). Each sounding body is a pinned
 //! voice of the same allocation-free `resound_synth::Engine` that live playback uses: an

@@ -94,12 +94,13 @@ pub struct SceneOutput {
     pub stats: SceneStats,
 }
 
-/// What the contact tracker sends the sound engine each step: one body excited at one point
-/// by a force profile (an impact's Hertz pulse, or a step of sliding, rolling or scraping).
+/// What the contact tracker sends the sound engine each step: the two bodies of a contact
+/// excited at one point by the same force profile (an impact's Hertz pulse, or a step of
+/// sliding, rolling or scraping).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Excitation {
-    /// Index of the excited body.
-    pub body: usize,
+    /// Indices of the two bodies in contact; both are excited.
+    pub bodies: [usize; 2],
     /// Contact point, world frame, m.
     pub point: [f64; 3],
     /// Contact normal (from the first body to the second), world frame.
@@ -378,6 +379,8 @@ impl VertexGrid {
 struct StepContacts {
     /// Forces for the sound engine, in the order they were found.
     excitations: Vec<Excitation>,
+    /// Force buffers of earlier steps, for reuse (continuous contacts make one per step).
+    spare_forces: Vec<Vec<f32>>,
     /// The event log (kept for the whole run).
     events: Vec<Event>,
     /// Per body: the strongest continuous contact of the step (kind, power W, speed m/s).
@@ -389,7 +392,20 @@ struct StepContacts {
 }
 
 impl StepContacts {
-    /// The same force on both bodies of a contact (the first gets a copy).
+    /// An empty force buffer, reusing an earlier step's.
+    fn force_buffer(&mut self) -> Vec<f32> {
+        let mut f = self.spare_forces.pop().unwrap_or_default();
+        f.clear();
+        f
+    }
+
+    /// Empties the step's excitations, keeping their buffers.
+    fn clear_excitations(&mut self) {
+        let spare = &mut self.spare_forces;
+        spare.extend(self.excitations.drain(..).map(|e| e.force));
+    }
+
+    /// The same force on both bodies of a contact.
     fn excite_both(
         &mut self,
         pair: [usize; 2],
@@ -401,8 +417,8 @@ impl StepContacts {
         delay: usize,
         time_s: f64,
     ) {
-        let e = Excitation {
-            body: pair[0],
+        self.excitations.push(Excitation {
+            bodies: pair,
             point,
             normal,
             kind,
@@ -410,9 +426,7 @@ impl StepContacts {
             scale,
             delay,
             time_s,
-        };
-        self.excitations.push(e.clone());
-        self.excitations.push(Excitation { body: pair[1], ..e });
+        });
     }
 }
 
@@ -426,7 +440,6 @@ struct ContactTracker {
     radii: Vec<f64>,
     dt: f64,
     fs: f64,
-    step_force: Vec<f32>,
 }
 
 impl ContactTracker {
@@ -630,15 +643,15 @@ impl ContactTracker {
                     }
                     state.last_kind = Some(ContactKind::Sliding);
                 } else if let Some((kind, speed)) = kind {
-                    self.step_force.clear();
-                    self.step_force.resize(n, 0.0f32);
+                    let mut step_force = out.force_buffer();
+                    step_force.resize(n, 0.0f32);
                     if kind == ContactKind::Sliding {
                         state.force.sliding(
                             &self.profile,
                             normal_force,
                             speed,
                             fs,
-                            &mut self.step_force,
+                            &mut step_force,
                         );
                     } else {
                         let roller = if bodies[i1].fixed { i2 } else { i1 };
@@ -648,7 +661,7 @@ impl ContactTracker {
                             speed,
                             self.radii[roller],
                             fs,
-                            &mut self.step_force,
+                            &mut step_force,
                         );
                     }
                     out.excite_both(
@@ -656,7 +669,7 @@ impl ContactTracker {
                         point,
                         arr(normal),
                         kind,
-                        self.step_force.clone(),
+                        step_force,
                         1.0,
                         0,
                         t_start,
@@ -832,7 +845,6 @@ impl ScenePhysics {
             radii: kept.iter().map(|b| contact_radius(&b.shape)).collect(),
             dt,
             fs,
-            step_force: Vec::new(),
         };
         let total = (params.duration_s * fs).round() as usize;
         let steps = (params.duration_s * params.steps_per_s).ceil() as usize;
@@ -859,6 +871,7 @@ impl ScenePhysics {
                 tracker,
                 out: StepContacts {
                     excitations: Vec::new(),
+                    spare_forces: Vec::new(),
                     events: Vec::new(),
                     continuous: vec![None; n_bodies],
                     grain_impacts: Vec::new(),
@@ -938,7 +951,7 @@ impl ScenePhysics {
             })
             .collect();
         self.world.step();
-        self.out.excitations.clear();
+        self.out.clear_excitations();
         self.out.grain_impacts.clear();
         self.tracker.step(
             &self.world,
@@ -969,16 +982,18 @@ impl ScenePhysics {
             }
         }
         for e in &self.out.excitations {
-            let Some(sound) = self.bodies[e.body].sound.as_ref() else {
-                continue;
-            };
-            let local = arr(self.world.bodies[self.handles[e.body]]
-                .position()
-                .inverse_transform_point(v3(e.point)));
-            let k = self.grids[e.body]
-                .as_ref()
-                .map_or(0, |g| g.nearest(&sound.vertices, local));
-            tx.force(e.body, k, &e.force, e.scale, e.delay);
+            for body in e.bodies {
+                let Some(sound) = self.bodies[body].sound.as_ref() else {
+                    continue;
+                };
+                let local = arr(self.world.bodies[self.handles[body]]
+                    .position()
+                    .inverse_transform_point(v3(e.point)));
+                let k = self.grids[body]
+                    .as_ref()
+                    .map_or(0, |g| g.nearest(&sound.vertices, local));
+                tx.force(body, k, &e.force, e.scale, e.delay);
+            }
         }
         for &i in &self.grain_bodies {
             tx.send(Cue::GrainContact {
