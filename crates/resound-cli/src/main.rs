@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod analyze_cmd;
+mod batch_cmd;
 mod compare_cmd;
 mod demo_cmd;
 mod estimate_cmd;
@@ -57,6 +58,8 @@ enum Command {
     Scene(scene_cmd::SceneArgs),
     /// Scrape a probe over a surface texture (Traer 2019 §4) on an object, to WAV.
     Scrape(scrape_cmd::ScrapeArgs),
+    /// Render a jobs file (JSON lines: mesh × material × hits × speeds) to content-addressed files, one shard per process, resumable.
+    Batch(batch_cmd::BatchArgs),
     /// Per-material mode statistics (Traer 2019): fit to recordings, import PyImpact tables.
     #[command(subcommand)]
     Stats(stats_cmd::StatsCmd),
@@ -106,6 +109,7 @@ fn main() -> ExitCode {
         Command::Materials(c) => estimate_cmd::run_materials(c),
         Command::Synth(a) => synth_cmd::run(a),
         Command::Scene(a) => scene_cmd::run(a),
+        Command::Batch(a) => batch_cmd::run(a),
         Command::Stats(c) => stats_cmd::run(c),
         Command::Scrape(a) => scrape_cmd::run(a),
         Command::Grains(c) => grains_cmd::run(c),

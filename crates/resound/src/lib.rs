@@ -44,6 +44,7 @@ pub use resound_signal as signal;
 pub use resound_stats as stats;
 pub use resound_synth as synth;
 
+pub mod batch;
 #[cfg(feature = "plot")]
 pub mod demo;
 mod error;

@@ -1,0 +1,87 @@
+//! `resound batch`: render a jobs file (JSON lines) to content-addressed files, one shard per
+//! process.
+
+use crate::util::{bar, print_json, warn_all};
+use anyhow::{bail, Result};
+use clap::Args;
+use resound::batch::{parse_shard, run_batch, BatchParams};
+use std::path::PathBuf;
+
+/// Arguments of `batch`.
+#[derive(Args, Debug)]
+pub struct BatchArgs {
+    /// Jobs: one JSON object per line (mesh, material, hits, speeds_m_s, listener, outputs, …;
+    /// see the README). Paths in it are relative to this file.
+    pub jobs: PathBuf,
+    /// Output directory: `<2 hex>/<hash>.wav|json` and `manifest-<i>-of-<N>.jsonl`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// This process's share of the jobs, `i/N` with 0 ≤ i < N (Slurm:
+    /// `$SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT`, Kubernetes: `$JOB_COMPLETION_INDEX/N`).
+    #[arg(long, default_value = "0/1")]
+    pub shard: String,
+    /// Material library path.
+    #[arg(long)]
+    pub library: Option<PathBuf>,
+    /// Keep solved modal models here (`.rmodal` by content hash), shared across runs and shards.
+    #[arg(long)]
+    pub cache: Option<PathBuf>,
+    /// Print the run's figures as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `batch`.
+pub fn run(a: BatchArgs) -> Result<()> {
+    let params = BatchParams {
+        out_dir: a.out.clone(),
+        shard: parse_shard(&a.shard)?,
+        library: a.library.clone(),
+        cache_dir: a.cache.clone(),
+    };
+    let pb = std::cell::OnceCell::new();
+    let info = run_batch(&a.jobs, &params, &|p| {
+        let pb = pb.get_or_init(|| bar("batch", p.total as u64, "jobs"));
+        pb.inc(1);
+    })?;
+    if let Some(pb) = pb.get() {
+        pb.finish_and_clear();
+    }
+    warn_all(&info.warnings);
+    if a.json {
+        print_json(&info)?;
+    } else {
+        println!(
+            "shard {}: {} of {} jobs; {} strikes rendered, {} already done; {} models solved; {:.1} s",
+            a.shard,
+            info.shard_jobs,
+            info.jobs,
+            info.rendered,
+            info.skipped,
+            info.models_solved,
+            info.elapsed_s
+        );
+        println!("manifest: {}", info.manifest.display());
+    }
+    if !info.failures.is_empty() {
+        for f in &info.failures {
+            eprintln!(
+                "error: {}: line {}: {}",
+                a.jobs.display(),
+                f.line,
+                f.message
+            );
+        }
+        bail!(
+            "{} of {} jobs of this shard failed (lines {})",
+            info.failures.len(),
+            info.shard_jobs,
+            info.failures
+                .iter()
+                .map(|f| f.line.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    Ok(())
+}
