@@ -2,10 +2,8 @@
 
 use anyhow::{bail, Result};
 use clap::Args;
-use resound::core::DampedMode;
-use resound::recording::analyze_file;
+use resound::recording::{analyze_file, AnalysisReport};
 use resound::signal::{Analysis, AnalyzeParams};
-use serde::Serialize;
 use std::path::PathBuf;
 
 /// Arguments of `analyze`.
@@ -40,36 +38,6 @@ pub struct AnalyzeArgs {
     pub stage1_only: bool,
 }
 
-/// The JSON `analyze` writes (and `synth --modes` reads).
-#[derive(Serialize)]
-struct Output<'a> {
-    file: String,
-    codec: &'a str,
-    sample_rate: f64,
-    onset_s: f64,
-    strikes_s: &'a [f64],
-    /// The strike analysed, counting from 1, and why.
-    strike: usize,
-    strike_reason: &'a str,
-    conditioning: Conditioning<'a>,
-    analysed_s: f64,
-    noise_rms: f64,
-    clipped_samples: usize,
-    warnings: &'a [String],
-    elapsed_s: f64,
-    modes: &'a [DampedMode],
-}
-
-/// What conditioning did, as written to JSON.
-#[derive(Serialize)]
-struct Conditioning<'a> {
-    dc_offset: f64,
-    highpass_hz: Option<f64>,
-    highpass_reason: &'a str,
-    noise_floor_dbfs: f64,
-    noise_from: &'a str,
-}
-
 /// Runs `analyze`.
 pub fn run(a: AnalyzeArgs) -> Result<()> {
     if !(a.max_duration_s > 0.02 && a.max_duration_s <= 600.0) {
@@ -88,28 +56,7 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     };
     let (rec, res) = analyze_file(&a.audio, &a.take.recording(), &params)?;
     crate::util::warn_all(&res.warnings);
-    let out = Output {
-        file: a.audio.display().to_string(),
-        codec: &rec.codec,
-        sample_rate: res.sample_rate_hz,
-        onset_s: res.onset_s,
-        strikes_s: &res.strikes_s,
-        strike: res.strike + 1,
-        strike_reason: &res.strike_reason,
-        conditioning: Conditioning {
-            dc_offset: res.conditioning.dc_offset,
-            highpass_hz: res.conditioning.highpass.hz(),
-            highpass_reason: &res.conditioning.highpass_reason,
-            noise_floor_dbfs: res.conditioning.noise_floor_dbfs,
-            noise_from: res.conditioning.noise_from,
-        },
-        analysed_s: res.samples as f64 / res.sample_rate_hz,
-        noise_rms: res.noise_rms,
-        clipped_samples: res.clipped_samples,
-        warnings: &res.warnings,
-        elapsed_s: res.total_s,
-        modes: &res.modes,
-    };
+    let out = AnalysisReport::new(&a.audio.display().to_string(), &rec.codec, &res);
     match &a.json {
         Some(p) if p.as_os_str() == "-" => crate::util::print_json(&out)?,
         Some(p) => resound::files::write_json(p, &out)?,

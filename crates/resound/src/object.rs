@@ -119,6 +119,71 @@ pub fn load_object(
     Ok(model)
 }
 
+/// Solves a closed surface given as arrays: `vertices` (m, before `params.scale`) and
+/// `triangles` (vertex indices). The surface goes through the same repair and checks as a mesh
+/// file.
+///
+/// # Errors
+/// Non-finite or huge coordinates, indices out of range, a surface that cannot be repaired, a
+/// failed solve, a model without modes.
+pub fn solve_surface(
+    vertices: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    params: &ObjectParams,
+    progress: &(dyn Fn(Stage) + Sync),
+) -> Result<ModalModel> {
+    use crate::error::invalid;
+    let scale = params.scale;
+    if !(1e-6..=1e6).contains(&scale) {
+        return Err(invalid(format!(
+            "scale must be within 1e-6–1e6 (0.001 reads millimetres), got {scale}"
+        )));
+    }
+    if vertices.len() < 4 || triangles.len() < 4 {
+        return Err(invalid(format!(
+            "a closed surface needs at least 4 vertices and 4 triangles, got {} and {}",
+            vertices.len(),
+            triangles.len()
+        )));
+    }
+    let scaled: Vec<[f64; 3]> = vertices
+        .iter()
+        .map(|p| [p[0] * scale, p[1] * scale, p[2] * scale])
+        .collect();
+    if let Some(i) = scaled
+        .iter()
+        .position(|p| !p.iter().all(|c| c.is_finite() && c.abs() <= 1e3))
+    {
+        return Err(invalid(format!(
+            "vertex {i} {:?} is not a finite coordinate within 1 km (after scale {scale})",
+            vertices[i]
+        )));
+    }
+    if let Some(t) = triangles
+        .iter()
+        .position(|t| t.iter().any(|&v| v as usize >= vertices.len()))
+    {
+        return Err(invalid(format!(
+            "triangle {t} {:?} names a vertex beyond the {} given",
+            triangles[t],
+            vertices.len()
+        )));
+    }
+    let mesh = resound_fem::surface::SurfaceMesh {
+        vertices: scaled,
+        triangles: triangles.to_vec(),
+    };
+    let model = ModalBuilder::new(Geometry::Surface(&mesh), &params.reference_material)
+        .params(params.modal.clone())
+        .progress(progress)
+        .solve()?
+        .model;
+    if model.eigenvalues.is_empty() {
+        return Err(invalid("the modal model has no modes"));
+    }
+    Ok(model)
+}
+
 /// One mode in the JSON summary.
 /// One mode of a [`ModalReport`].
 #[derive(Serialize)]

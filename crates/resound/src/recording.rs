@@ -5,9 +5,119 @@
 //! sees the same samples.
 
 use crate::error::{invalid, Error, Result};
+use resound_core::DampedMode;
 use resound_io::load_audio;
 use resound_signal::{analyze, Analysis, AnalyzeParams};
+use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+/// The figures of an analysis as `resound analyze --json` writes them (and `synth --modes`
+/// reads them): the same document from the CLI and the Python package.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct AnalysisReport {
+    /// The analysed file (or `"<array>"`).
+    pub file: String,
+    /// The codec it was decoded with.
+    pub codec: String,
+    /// Sample rate, Hz.
+    pub sample_rate: f64,
+    /// Onset of the analysed strike, s.
+    pub onset_s: f64,
+    /// Onsets of every strike found, s.
+    pub strikes_s: Vec<f64>,
+    /// The strike analysed, counting from 1.
+    pub strike: usize,
+    /// Why that strike.
+    pub strike_reason: String,
+    /// What conditioning did.
+    pub conditioning: ConditioningReport,
+    /// Length analysed after the onset, s.
+    pub analysed_s: f64,
+    /// Residual noise (robust standard deviation), full scale = 1.
+    pub noise_rms: f64,
+    /// Samples in flat runs at the peak.
+    pub clipped_samples: usize,
+    /// Warnings (clipping, several strikes, …).
+    pub warnings: Vec<String>,
+    /// Wall time of the analysis, s.
+    pub elapsed_s: f64,
+    /// The modes, by frequency; t = 0 at the onset.
+    pub modes: Vec<DampedMode>,
+}
+
+/// What conditioning did, in an [`AnalysisReport`].
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ConditioningReport {
+    /// DC offset removed.
+    pub dc_offset: f64,
+    /// High-pass corner, Hz (None: none).
+    pub highpass_hz: Option<f64>,
+    /// Why that high-pass.
+    pub highpass_reason: String,
+    /// Noise floor, dBFS.
+    pub noise_floor_dbfs: f64,
+    /// Where the noise was measured ("lead-in" or "tail").
+    pub noise_from: String,
+}
+
+impl AnalysisReport {
+    /// The report of `res`, an analysis of `file` decoded with `codec`.
+    pub fn new(file: &str, codec: &str, res: &Analysis) -> Self {
+        Self {
+            file: file.to_string(),
+            codec: codec.to_string(),
+            sample_rate: res.sample_rate_hz,
+            onset_s: res.onset_s,
+            strikes_s: res.strikes_s.clone(),
+            strike: res.strike + 1,
+            strike_reason: res.strike_reason.clone(),
+            conditioning: ConditioningReport {
+                dc_offset: res.conditioning.dc_offset,
+                highpass_hz: res.conditioning.highpass.hz(),
+                highpass_reason: res.conditioning.highpass_reason.clone(),
+                noise_floor_dbfs: res.conditioning.noise_floor_dbfs,
+                noise_from: res.conditioning.noise_from.to_string(),
+            },
+            analysed_s: res.samples as f64 / res.sample_rate_hz,
+            noise_rms: res.noise_rms,
+            clipped_samples: res.clipped_samples,
+            warnings: res.warnings.clone(),
+            elapsed_s: res.total_s,
+            modes: res.modes.clone(),
+        }
+    }
+}
+
+/// Analyses samples already in memory (full scale = 1) at `sample_rate_hz`; like
+/// [`analyze_file`], finding no mode is an error.
+///
+/// # Errors
+/// A rate outside 1 kHz–1 MHz, no samples, non-finite samples, a failed analysis, no modes.
+pub fn analyze_samples(
+    samples: &[f64],
+    sample_rate_hz: f64,
+    params: &AnalyzeParams,
+) -> Result<Analysis> {
+    if !(1000.0..=1e6).contains(&sample_rate_hz) {
+        return Err(invalid(format!(
+            "sample rate {sample_rate_hz} Hz is outside 1 kHz–1 MHz"
+        )));
+    }
+    if samples.is_empty() {
+        return Err(invalid("no samples"));
+    }
+    if let Some(i) = samples.iter().position(|x| !x.is_finite()) {
+        return Err(invalid(format!("sample {i} is not finite")));
+    }
+    let res = analyze(samples, sample_rate_hz, params)?;
+    if res.modes.is_empty() {
+        return Err(invalid(format!(
+            "no modes found above the noise and within {} dB of the strongest peak",
+            params.min_db
+        )));
+    }
+    Ok(res)
+}
 
 /// A decoded recording, one channel (or the mix), f64 at `sample_rate_hz`.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,0 +1,286 @@
+"""Resound: physically based contact sound.
+
+Find the material behind a recorded strike, then make any object of that material sound right
+when it is hit. Audio is float32 numpy arrays shaped ``(samples,)`` or ``(channels, samples)``
+with a ``sample_rate`` keyword, as in soundfile, librosa and pedalboard; units are SI (m, s, Hz,
+kg) and named in each keyword (``speed_m_s``, ``duration_s``). Heavy work releases the GIL, so
+threads run in parallel. There is no global state: every function takes what it needs.
+
+Errors raise :class:`ResoundError` with the message the ``resound`` command line prints.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _native
+from ._native import ModalModel, ModeStatistics, ResoundError
+
+__all__ = [
+    "Material",
+    "ModalModel",
+    "ModeStatistics",
+    "Modes",
+    "ResoundError",
+    "SceneRender",
+    "analyze",
+    "batch",
+    "estimate_material",
+    "material",
+    "materials",
+    "render_impact",
+    "render_modes",
+    "render_scene",
+    "render_strike",
+    "save_material",
+]
+
+__version__ = _native.version()
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+@dataclass(frozen=True)
+class Modes:
+    """Damped sinusoids a·e^(−d·t)·sin(2πf·t + θ), sorted by frequency.
+
+    Attributes:
+        freq_hz: frequencies f, Hz.
+        damping_per_s: decay rates d, 1/s (the envelope is e^(−d·t)).
+        amplitude: peak amplitudes a at t = 0, full scale = 1.
+        phase_rad: phases θ, rad.
+        report: the analysis figures (the JSON of ``resound analyze --json``, without modes).
+    """
+
+    freq_hz: np.ndarray
+    damping_per_s: np.ndarray
+    amplitude: np.ndarray
+    phase_rad: np.ndarray
+    report: Dict[str, Any] = field(default_factory=dict, repr=False)
+
+    @classmethod
+    def from_array(cls, rows: np.ndarray, report: Optional[Dict[str, Any]] = None) -> "Modes":
+        """Modes from an array shaped (n, 4): frequency, damping, amplitude, phase."""
+        rows = np.asarray(rows, dtype=np.float64).reshape(-1, 4)
+        return cls(rows[:, 0].copy(), rows[:, 1].copy(), rows[:, 2].copy(), rows[:, 3].copy(),
+                   report or {})
+
+    def to_array(self) -> np.ndarray:
+        """The modes as an array shaped (n, 4): frequency, damping, amplitude, phase."""
+        return np.stack([self.freq_hz, self.damping_per_s, self.amplitude, self.phase_rad],
+                        axis=1).astype(np.float64)
+
+    def __len__(self) -> int:
+        return len(self.freq_hz)
+
+
+@dataclass(frozen=True)
+class Material:
+    """A sounding material: Rayleigh damping α (1/s) and β (s), γ = E/ρ (m²/s²) and the
+    amplitude scale σ (Ren 2013 §5), plus what the document carries (residual, provenance).
+
+    ``document`` is the full JSON document; pass a Material anywhere a material is taken.
+    """
+
+    name: str
+    alpha: float
+    beta: float
+    gamma: float
+    sigma: float
+    origin: str = "document"
+    document: Dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def from_document(cls, doc: Dict[str, Any], origin: str = "document") -> "Material":
+        return cls(doc["name"], float(doc["alpha"]), float(doc["beta"]), float(doc["gamma"]),
+                   float(doc["sigma"]), origin, doc)
+
+    def to_json(self) -> str:
+        """The material's JSON document (what ``resound materials export`` writes)."""
+        return json.dumps(self.document)
+
+
+MaterialLike = Union[Material, str]
+
+
+def _material_spec(m: MaterialLike) -> str:
+    if isinstance(m, Material):
+        return m.to_json()
+    if isinstance(m, (str, os.PathLike)):
+        return os.fspath(m)
+    raise TypeError(f"a material is a Material, a library name, a file or 'preset:NAME', not {type(m).__name__}")
+
+
+def _opt_path(p: Optional[PathLike]) -> Optional[str]:
+    return None if p is None else os.fspath(p)
+
+
+def _mono(audio: np.ndarray, channel: Optional[int]) -> np.ndarray:
+    a = np.asarray(audio)
+    if a.ndim == 1:
+        if channel not in (None, 0):
+            raise ResoundError(f"channel {channel} does not exist (1 channel)")
+        x = a
+    elif a.ndim == 2:
+        # (channels, samples), as soundfile.read(...).T and librosa give; a (samples, channels)
+        # array with more rows than columns is taken as such.
+        if a.shape[0] > a.shape[1]:
+            a = a.T
+        if channel is None:
+            x = a.mean(axis=0)
+        elif 0 <= channel < a.shape[0]:
+            x = a[channel]
+        else:
+            raise ResoundError(f"channel {channel} does not exist ({a.shape[0]} channels)")
+    else:
+        raise ResoundError(f"audio must be shaped (samples,) or (channels, samples), got {a.shape}")
+    if not np.issubdtype(x.dtype, np.number):
+        raise TypeError(f"audio must be numeric, got {x.dtype}")
+    if np.issubdtype(x.dtype, np.signedinteger):
+        # PCM convention (soundfile, the decoders): full scale is 2^(bits−1).
+        x = x / -float(np.iinfo(x.dtype).min)
+    elif np.issubdtype(x.dtype, np.integer):
+        raise TypeError(f"unsigned integer audio ({x.dtype}) is ambiguous; convert to float")
+    return np.ascontiguousarray(x, dtype=np.float64)
+
+
+def analyze(audio: Union[PathLike, np.ndarray], sample_rate: Optional[float] = None, *,
+            channel: Optional[int] = None, strike: Optional[int] = None,
+            resample_hz: Optional[int] = None, max_modes: int = 64,
+            min_db: float = 60.0) -> Modes:
+    """The damped sinusoids of a recorded strike (Ren 2013 §4).
+
+    Args:
+        audio: a file (WAV, FLAC, OGG Vorbis, MP3) or samples shaped (samples,) or
+            (channels, samples), full scale = 1 (integer arrays are scaled).
+        sample_rate: the samples' rate, Hz (arrays only).
+        channel: which channel, from 0 (default: the mix).
+        strike: which strike of several, from 1 (default: the loudest clean one).
+        resample_hz: resample a file to this rate first.
+        max_modes: most modes kept.
+        min_db: keep modes within this many dB of the strongest.
+    """
+    if isinstance(audio, (str, os.PathLike)):
+        if sample_rate is not None:
+            raise TypeError("sample_rate is for arrays; a file knows its own")
+        rows, rep = _native.analyze_file(os.fspath(audio), channel, strike, resample_hz,
+                                         max_modes, min_db)
+    else:
+        if sample_rate is None:
+            raise TypeError("an array needs sample_rate=")
+        if resample_hz is not None:
+            raise TypeError("resample_hz is for files")
+        rows, rep = _native.analyze_array(_mono(audio, channel), float(sample_rate), strike,
+                                          max_modes, min_db)
+    report = json.loads(rep)
+    report.pop("modes", None)
+    return Modes.from_array(rows, report)
+
+
+def material(spec: str, *, library: Optional[PathLike] = None) -> Material:
+    """A material by library name, file, built-in name or ``preset:NAME``."""
+    return Material.from_document(json.loads(_native.get_material(os.fspath(spec),
+                                                                  _opt_path(library))))
+
+
+def materials(*, library: Optional[PathLike] = None) -> List[Material]:
+    """Every material: the library's, then the built-ins it does not replace."""
+    rows = json.loads(_native.list_materials(_opt_path(library)))
+    return [Material.from_document(doc, origin) for doc, origin in rows]
+
+
+def save_material(m: Material, *, library: Optional[PathLike] = None,
+                  replace: bool = False) -> None:
+    """Stores ``m`` in the library under its name (an existing entry only with ``replace``)."""
+    _native.save_material(m.to_json(), _opt_path(library), replace)
+
+
+def estimate_material(audio: Union[PathLike, np.ndarray], model: ModalModel,
+                      hit: Sequence[float], *, sample_rate: Optional[float] = None,
+                      channel: Optional[int] = None, strike: Optional[int] = None,
+                      name: str = "estimated", residual: bool = True,
+                      allow_implausible: bool = False) -> Tuple[Material, Dict[str, Any]]:
+    """Estimates the material of ``model`` struck at ``hit`` (m) from a recording of it
+    (Ren 2013 §5): the material and the fit report (paired modes, standard errors, warnings).
+    """
+    h = [float(c) for c in hit]
+    if isinstance(audio, (str, os.PathLike)):
+        if sample_rate is not None:
+            raise TypeError("sample_rate is for arrays; a file knows its own")
+        m, rep = _native.estimate_material(model, h, os.fspath(audio), None, None, channel,
+                                           strike, name, residual, allow_implausible)
+    else:
+        if sample_rate is None:
+            raise TypeError("an array needs sample_rate=")
+        m, rep = _native.estimate_material(model, h, None, _mono(audio, channel),
+                                           float(sample_rate), None, strike, name, residual,
+                                           allow_implausible)
+    return Material.from_document(json.loads(m), "estimated"), json.loads(rep)
+
+
+def render_strike(material: MaterialLike, model: ModalModel, hit: Sequence[float], *,
+                  speed_m_s: float = 1.0, duration_s: float = 1.0, sample_rate: int = 48000,
+                  residual: bool = True, impactor_mass_kg: Optional[float] = None,
+                  impactor_radius_m: float = 0.005,
+                  library: Optional[PathLike] = None) -> np.ndarray:
+    """One strike of an object (``model``) of ``material`` at ``hit`` (m) by a steel sphere at
+    ``speed_m_s``: float32 samples at physical scale (1 m away; not normalized)."""
+    x, _info = _native.render_strike(_material_spec(material), model,
+                                     [float(c) for c in hit], speed_m_s, duration_s,
+                                     sample_rate, residual, impactor_mass_kg,
+                                     impactor_radius_m, _opt_path(library))
+    return x
+
+
+def render_modes(modes: Union[Modes, np.ndarray], *, duration_s: float = 1.0,
+                 sample_rate: int = 48000) -> np.ndarray:
+    """Analysed modes rendered as recorded (phases included): float32 samples."""
+    rows = modes.to_array() if isinstance(modes, Modes) else np.asarray(modes, np.float64)
+    return _native.render_modes(np.ascontiguousarray(rows.reshape(-1, 4)), duration_s,
+                                sample_rate)
+
+
+def render_impact(stats: ModeStatistics, *, seed: int = 0, speed_m_s: float = 1.0,
+                  duration_s: float = 1.0, sample_rate: int = 44100, residual: bool = False,
+                  impactor_mass_kg: Optional[float] = None,
+                  impactor_radius_m: float = 0.005) -> np.ndarray:
+    """One impact of an object drawn from mode statistics (Traer 2019; PyImpact tables load
+    with :meth:`ModeStatistics.load`): the object's IR with ``seed``, this impact's variation
+    with ``seed + 1``. Float32 samples."""
+    return _native.render_impact(stats, seed, speed_m_s, duration_s, sample_rate, residual,
+                                 impactor_mass_kg, impactor_radius_m)
+
+
+@dataclass(frozen=True)
+class SceneRender:
+    """A rendered scene: ``audio`` float32 (channels, samples) at ``sample_rate`` Hz, the
+    contact ``events`` (time, bodies, kind, force, …) and the ``summary`` figures."""
+
+    audio: np.ndarray
+    sample_rate: int
+    events: List[Dict[str, Any]]
+    summary: Dict[str, Any]
+
+
+def render_scene(path: PathLike, *, library: Optional[PathLike] = None,
+                 keep_level: bool = False) -> SceneRender:
+    """Simulates and renders a scene file (TOML: bodies, materials, listener), as
+    ``resound scene``. ``keep_level`` keeps the physical level (else peak-normalized)."""
+    audio, fs, events, summary = _native.render_scene(os.fspath(path), _opt_path(library),
+                                                      keep_level)
+    return SceneRender(audio, fs, json.loads(events), json.loads(summary))
+
+
+def batch(jobs: PathLike, out: PathLike, *, shard: Tuple[int, int] = (0, 1),
+          library: Optional[PathLike] = None, cache: Optional[PathLike] = None) -> Dict[str, Any]:
+    """Runs shard ``shard = (i, n)`` of a jobs file, as ``resound batch`` (content-addressed
+    outputs, a per-shard manifest, resumable). Returns the run's figures; failed job lines are
+    listed in ``failures`` rather than raised."""
+    i, n = shard
+    return json.loads(_native.batch(os.fspath(jobs), os.fspath(out), int(i), int(n),
+                                    _opt_path(library), _opt_path(cache)))

@@ -1,0 +1,104 @@
+"""Type stubs of the native module (Rust, pyo3). Use the functions of :mod:`resound`; the
+two classes are public there."""
+
+from os import PathLike
+from typing import List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+_Path = Union[str, PathLike[str]]
+
+class ResoundError(Exception):
+    """A Resound operation failed; the message is the CLI's."""
+
+class ModalModel:
+    """A modal model: frequencies and surface mode shapes of an object (Ren 2013 §3)."""
+
+    @staticmethod
+    def from_file(path: _Path, scale: float = 1.0, modes: int = 60,
+                  reference_material: str = "ceramic") -> "ModalModel":
+        """Solves a mesh file (OBJ, STL, PLY, .msh, .node/.ele, .mesh; coordinates × ``scale``
+        in m) for ``modes`` elastic modes with ``reference_material`` (preset or "E,nu,rho"),
+        or loads a ``.rmodal``."""
+    @staticmethod
+    def from_arrays(vertices: npt.NDArray[np.float64], triangles: npt.NDArray[np.uint32],
+                    scale: float = 1.0, modes: int = 60,
+                    reference_material: str = "ceramic") -> "ModalModel":
+        """Solves a closed surface: ``vertices`` (n, 3) in m before ``scale``, ``triangles``
+        (m, 3) vertex indices."""
+    def save(self, path: _Path) -> None:
+        """Writes a ``.rmodal`` file (atomically)."""
+    @property
+    def n_modes(self) -> int: ...
+    @property
+    def eigenvalues(self) -> npt.NDArray[np.float64]:
+        """λ = ω² for the reference material, rad²/s²."""
+    @property
+    def vertices(self) -> npt.NDArray[np.float64]:
+        """Surface vertices, m, (n, 3)."""
+    @property
+    def triangles(self) -> npt.NDArray[np.uint32]:
+        """Surface triangles, (m, 3)."""
+    @property
+    def reference_material(self) -> str:
+        """The solve's material as JSON (youngs_modulus Pa, poisson_ratio, density kg/m³)."""
+    def frequencies_hz(self, material: Optional[str] = None,
+                       library: Optional[_Path] = None) -> npt.NDArray[np.float64]:
+        """Undamped frequencies for ``material`` (a reference or JSON; default: the
+        reference material), Hz."""
+    def hit(self, point: Sequence[float]) -> Tuple[Tuple[float, float, float], float,
+                                                   npt.NDArray[np.float64]]:
+        """Snaps ``point`` (m) to the surface: (surface point m, distance m, each mode's gain
+        there in m per N·s)."""
+
+class ModeStatistics:
+    """Per-material mode statistics (Traer 2019)."""
+
+    @staticmethod
+    def load(path: _Path) -> "ModeStatistics":
+        """A Resound statistics file or a PyImpact material table (JSON)."""
+    @staticmethod
+    def from_pyimpact_json(material: str, text: str) -> "ModeStatistics":
+        """A PyImpact material table given as JSON text."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def modes(self) -> int:
+        """Modes per sampled impulse response."""
+    def sample(self, seed: int) -> npt.NDArray[np.float64]:
+        """An impulse response drawn with ``seed``: modes (n, 4) — Hz, 1/s, amplitude, rad."""
+    def to_json(self) -> str: ...
+
+def analyze_file(path: _Path, channel: Optional[int] = None, strike: Optional[int] = None,
+                 resample_hz: Optional[int] = None, max_modes: int = 64,
+                 min_db: float = 60.0) -> Tuple[npt.NDArray[np.float64], str]: ...
+def analyze_array(samples: npt.NDArray[np.float64], sample_rate: float,
+                  strike: Optional[int] = None, max_modes: int = 64,
+                  min_db: float = 60.0) -> Tuple[npt.NDArray[np.float64], str]: ...
+def get_material(spec: str, library: Optional[_Path] = None) -> str: ...
+def list_materials(library: Optional[_Path] = None) -> str: ...
+def save_material(material_json: str, library: Optional[_Path] = None,
+                  replace: bool = False) -> None: ...
+def estimate_material(model: ModalModel, hit: Sequence[float], path: Optional[_Path] = None,
+                      samples: Optional[npt.NDArray[np.float64]] = None,
+                      sample_rate: Optional[float] = None, channel: Optional[int] = None,
+                      strike: Optional[int] = None, name: str = "estimated",
+                      residual: bool = True,
+                      allow_implausible: bool = False) -> Tuple[str, str]: ...
+def render_strike(material: str, model: ModalModel, hit: Sequence[float],
+                  speed_m_s: float = 1.0, duration_s: float = 1.0, sample_rate: int = 48000,
+                  residual: bool = True, impactor_mass_kg: Optional[float] = None,
+                  impactor_radius_m: float = 0.005,
+                  library: Optional[_Path] = None) -> Tuple[npt.NDArray[np.float32], str]: ...
+def render_modes(modes: npt.NDArray[np.float64], duration_s: float = 1.0,
+                 sample_rate: int = 48000) -> npt.NDArray[np.float32]: ...
+def render_impact(stats: ModeStatistics, seed: int = 0, speed_m_s: float = 1.0,
+                  duration_s: float = 1.0, sample_rate: int = 44100, residual: bool = False,
+                  impactor_mass_kg: Optional[float] = None,
+                  impactor_radius_m: float = 0.005) -> npt.NDArray[np.float32]: ...
+def render_scene(path: _Path, library: Optional[_Path] = None, keep_level: bool = False
+                 ) -> Tuple[npt.NDArray[np.float32], int, str, str]: ...
+def batch(jobs: _Path, out: _Path, shard: int = 0, shards: int = 1,
+          library: Optional[_Path] = None, cache: Optional[_Path] = None) -> str: ...
+def version() -> str: ...
