@@ -46,6 +46,30 @@ pub enum BenchCmd {
     /// 40 modes struck every 50 ms (a quarter also rolling) — callback time against the
     /// deadline at `--bodies`, misses over `--seconds`, and the bodies at the first miss.
     Live(LiveBenchArgs),
+    /// Dataset generation: a jobs file of `--meshes` boxes × `--hits` hit points (one job
+    /// each, built-in materials in turn) through `resound batch`, as 1 and as 2 local worker
+    /// processes (`--shard i/2`): jobs per minute, time to the first output, models solved.
+    Batch(BatchBenchArgs),
+}
+
+/// Arguments of `bench batch`.
+#[derive(Args, Debug)]
+pub struct BatchBenchArgs {
+    /// JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// Meshes (boxes of different sizes).
+    #[arg(long, default_value_t = 20)]
+    pub meshes: usize,
+    /// Hit points per mesh (one job each).
+    #[arg(long, default_value_t = 10)]
+    pub hits: usize,
+    /// Modes per model.
+    #[arg(long, default_value_t = 60)]
+    pub modes: usize,
+    /// Length of each strike, s.
+    #[arg(long, default_value_t = 1.0)]
+    pub duration_s: f64,
 }
 
 /// Arguments of `bench live`.
@@ -412,6 +436,7 @@ pub fn run(c: BenchCmd) -> Result<()> {
         BenchCmd::Stats(a) => return run_stats(a),
         BenchCmd::Grains(a) => return run_grains(a),
         BenchCmd::Live(a) => return run_live(a),
+        BenchCmd::Batch(a) => return run_batch_bench(a),
     };
     let exe = std::env::current_exe().context("locating the resound binary")?;
     if a.dofs.contains(&0) {
@@ -1098,6 +1123,147 @@ fn run_scene(a: SceneBenchArgs) -> Result<()> {
 /// The PyImpact metal_3 table (BSD-2-Clause; see tests/fixtures/pyimpact/README.md).
 const METAL_3: &str = include_str!("../../resound-cli/tests/fixtures/pyimpact/metal_3_mm.json");
 
+fn run_batch_bench(a: BatchBenchArgs) -> Result<()> {
+    use resound::batch::BatchInfo;
+    if a.meshes == 0 || a.hits == 0 {
+        bail!("--meshes and --hits must be positive");
+    }
+    let exe = std::env::current_exe().context("locating the resound binary")?;
+    let dir = tempfile::tempdir()?;
+    let d = dir.path();
+    let names = ["wood", "plastic", "metal", "glass", "porcelain"];
+    let mut jobs = String::new();
+    for m in 0..a.meshes {
+        let (x, y, z) = (
+            0.06 + 0.01 * m as f64,
+            0.05 + 0.004 * (m % 7) as f64,
+            0.03 + 0.003 * (m % 5) as f64,
+        );
+        let mesh = primitive::bar([x, y, z]);
+        resound::io::save_surface(&d.join(format!("m{m}.obj")), &mesh)?;
+        for h in 0..a.hits {
+            // Points across the top face (z = z/2), away from its centre lines.
+            let u = (h as f64 + 0.5) / a.hits as f64;
+            let hit = [x * (0.45 * u - 0.2), y * (0.17 - 0.3 * u), z / 2.0];
+            jobs.push_str(&serde_json::to_string(&serde_json::json!({
+                "mesh": format!("m{m}.obj"),
+                "material": names[(m + h) % names.len()],
+                "hits": [hit],
+                "modes": a.modes,
+                "duration_s": a.duration_s,
+            }))?);
+            jobs.push('\n');
+        }
+    }
+    std::fs::write(d.join("jobs.jsonl"), jobs)?;
+    let n_jobs = a.meshes * a.hits;
+    let start = |out: &str, shard: &str| -> Result<std::process::Child> {
+        Command::new(&exe)
+            .args([
+                "batch",
+                "jobs.jsonl",
+                "--out",
+                out,
+                "--shard",
+                shard,
+                "--json",
+            ])
+            .current_dir(d)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .context("starting resound batch")
+    };
+    let finish = |c: std::process::Child| -> Result<BatchInfo> {
+        let o = c.wait_with_output()?;
+        let v: serde_json::Value =
+            serde_json::from_slice(&o.stdout).context("reading the batch run's figures")?;
+        let info = BatchInfo {
+            rendered: v["rendered"].as_u64().unwrap_or(0) as usize,
+            models_solved: v["models_solved"].as_u64().unwrap_or(0) as usize,
+            first_output_s: v["first_output_s"].as_f64(),
+            failures: Vec::new(),
+            ..Default::default()
+        };
+        if !o.status.success() {
+            bail!("resound batch failed: {v}");
+        }
+        Ok(info)
+    };
+    if !a.json {
+        eprintln!("bench batch: {n_jobs} jobs, 1 worker ...");
+    }
+    let t0 = std::time::Instant::now();
+    let one = finish(start("one", "0/1")?)?;
+    let one_s = t0.elapsed().as_secs_f64();
+    if !a.json {
+        eprintln!("bench batch: {n_jobs} jobs, 2 workers ...");
+    }
+    let t1 = std::time::Instant::now();
+    let (c0, c1) = (start("two", "0/2")?, start("two", "1/2")?);
+    let (s0, s1) = (finish(c0)?, finish(c1)?);
+    let two_s = t1.elapsed().as_secs_f64();
+    if one.rendered != n_jobs || s0.rendered + s1.rendered != n_jobs {
+        bail!(
+            "rendered {} (1 worker) and {} + {} (2 workers) of {n_jobs} strikes",
+            one.rendered,
+            s0.rendered,
+            s1.rendered
+        );
+    }
+    #[derive(Serialize)]
+    struct Doc {
+        benchmark: &'static str,
+        jobs: usize,
+        meshes: usize,
+        modes: usize,
+        strike_s: f64,
+        one_worker_s: f64,
+        one_worker_jobs_per_min: f64,
+        two_workers_s: f64,
+        two_workers_jobs_per_min: f64,
+        speedup: f64,
+        first_output_s: Option<f64>,
+        first_output_two_workers_s: Option<f64>,
+        models_solved: usize,
+        models_solved_two_workers: usize,
+        shard_jobs_two_workers: [usize; 2],
+    }
+    let first2 = match (s0.first_output_s, s1.first_output_s) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    };
+    let v = Doc {
+        benchmark: "batch",
+        jobs: n_jobs,
+        meshes: a.meshes,
+        modes: a.modes,
+        strike_s: a.duration_s,
+        one_worker_s: one_s,
+        one_worker_jobs_per_min: 60.0 * n_jobs as f64 / one_s,
+        two_workers_s: two_s,
+        two_workers_jobs_per_min: 60.0 * n_jobs as f64 / two_s,
+        speedup: one_s / two_s,
+        first_output_s: one.first_output_s,
+        first_output_two_workers_s: first2,
+        models_solved: one.models_solved,
+        models_solved_two_workers: s0.models_solved + s1.models_solved,
+        shard_jobs_two_workers: [s0.rendered, s1.rendered],
+    };
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!(
+            "{} jobs ({} meshes, {} modes, {} s strikes): 1 worker {:.1} s ({:.0} jobs/min), 2 workers {:.1} s ({:.0} jobs/min, {:.2}x; shards {} + {}); first output after {:.2} s; {} models solved",
+            v.jobs, v.meshes, v.modes, v.strike_s, v.one_worker_s, v.one_worker_jobs_per_min,
+            v.two_workers_s, v.two_workers_jobs_per_min, v.speedup,
+            v.shard_jobs_two_workers[0], v.shard_jobs_two_workers[1],
+            v.first_output_s.unwrap_or(f64::NAN), v.models_solved
+        );
+    }
+    Ok(())
+}
+
 fn run_stats(a: StatsBenchArgs) -> Result<()> {
     use resound::synth::excitation::{ContactModel, Elastic, Impact};
     use resound::synth::render::{bank_modes, render_strike, REFERENCE_IMPULSE_N_S};
@@ -1138,6 +1304,33 @@ fn run_stats(a: StatsBenchArgs) -> Result<()> {
         std::hint::black_box(sink);
         Ok(t0.elapsed().as_secs_f64())
     })?;
+    // The same 100 impacts through the library call the Python package makes
+    // (`resound.render_impact` → `render_strike(Struck::Stats)`): the baseline of the Python
+    // call overhead (`crates/resound-py/bench/impacts.py`).
+    let library = best(&|| {
+        let t0 = std::time::Instant::now();
+        let mut sink = 0.0f32;
+        for k in 0..100u64 {
+            let p = resound::strike::StrikeParams {
+                speed_m_s: 0.5 + 0.01 * k as f64,
+                impactor_mass_kg: Some(0.01),
+                residual: false,
+                duration_s: 1.0,
+                sample_rate_hz: 44_100,
+                ..Default::default()
+            };
+            let x = resound::strike::render_strike(
+                resound::strike::Struck::Stats {
+                    stats: &stats,
+                    seed: k,
+                },
+                &p,
+            )?;
+            sink += x.samples[100];
+        }
+        std::hint::black_box(sink);
+        Ok(t0.elapsed().as_secs_f64())
+    })?;
     let scrape10 = best(&|| {
         let t0 = std::time::Instant::now();
         let surface = Surface::fractal(1 << 20, 1e-5, 2.0, 5e-6, 1)?;
@@ -1154,6 +1347,7 @@ fn run_stats(a: StatsBenchArgs) -> Result<()> {
     struct Doc {
         benchmark: &'static str,
         impacts100_s: f64,
+        impacts100_render_strike_s: f64,
         scrape10s_s: f64,
         impact_audio_s: f64,
         modes: usize,
@@ -1161,6 +1355,7 @@ fn run_stats(a: StatsBenchArgs) -> Result<()> {
     let v = Doc {
         benchmark: "stats",
         impacts100_s: impacts,
+        impacts100_render_strike_s: library,
         scrape10s_s: scrape10,
         impact_audio_s: 1.0,
         modes: stats.modes,
@@ -1169,8 +1364,8 @@ fn run_stats(a: StatsBenchArgs) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!(
-            "100 impacts (sample + Hertz pulse + 1 s render each, {} modes): {:.4} s; 10 s scrape (8 location IRs): {:.3} s (best of 3)",
-            stats.modes, impacts, scrape10
+            "100 impacts (sample + Hertz pulse + 1 s render each, {} modes): {:.4} s ({:.4} s through render_strike, as Python calls it); 10 s scrape (8 location IRs): {:.3} s (best of 3)",
+            stats.modes, impacts, library, scrape10
         );
     }
     Ok(())

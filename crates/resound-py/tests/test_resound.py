@@ -3,6 +3,7 @@
 import json
 import os
 import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -284,3 +285,44 @@ def test_heavy_calls_release_the_gil():
     # once a millisecond (at least a tenth of that on a loaded machine).
     assert elapsed > 0.05, "the solve was too short to tell"
     assert ticks > 0.1 * elapsed / 0.001, (ticks, elapsed)
+
+
+def test_the_ray_recipe_on_a_local_instance_with_two_workers_makes_the_unsharded_run(tmp_path):
+    if os.environ.get("RESOUND_REQUIRE_RAY"):
+        import ray  # noqa: F401  (test.sh installs it: a missing ray fails, never skips)
+    else:
+        pytest.importorskip("ray", reason="test.sh installs ray; `pip install ray` to run this")
+    meshes = []
+    # Shards follow a hash of the mesh path (and modes, scale, reference): these four names
+    # give each of two shards two models.
+    for k, size in zip([0, 1, 4, 6], [(0.08, 0.06, 0.05), (0.1, 0.05, 0.04), (0.12, 0.07, 0.03),
+                                      (0.09, 0.09, 0.04)]):
+        v, t = box(*size)
+        lines = ["v %g %g %g" % tuple(p) for p in v] + ["f %d %d %d" % tuple(f + 1) for f in t]
+        (tmp_path / f"m{k}.obj").write_text("\n".join(lines) + "\n")
+        meshes.append((f"m{k}.obj", size))
+    jobs = []
+    for name, (x, y, z) in meshes:
+        for mat in ("glass", "plastic"):
+            jobs.append({"mesh": name, "material": mat, "modes": 12, "duration_s": 0.2,
+                         "hits": [[x / 2, y / 5, z / 5], [x / 5, y / 2, z / 7]]})
+    (tmp_path / "jobs.jsonl").write_text("\n".join(map(json.dumps, jobs)) + "\n")
+    one = resound.batch(tmp_path / "jobs.jsonl", tmp_path / "one")
+    assert one["rendered"] == 16 and not one["failures"]
+    script = REPO / "recipes/ray/batch_ray.py"
+    run = subprocess.run([sys.executable, str(script), "jobs.jsonl", "ray-out", "--num-cpus", "2",
+                          "--shards", "2"], cwd=tmp_path, capture_output=True, text=True,
+                         timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    summary = json.loads(run.stdout.strip().splitlines()[-1])
+    assert summary["shards"] == 2 and summary["rendered"] == 16 and summary["models_solved"] == 4
+
+    def files(d):
+        return {str(p.relative_to(d)): p.read_bytes() for p in d.glob("??/*")}
+
+    assert files(tmp_path / "ray-out") == files(tmp_path / "one")
+    entries = lambda d: sorted(l for m in d.glob("manifest-*.jsonl")
+                               for l in m.read_text().splitlines())
+    assert entries(tmp_path / "ray-out") == entries(tmp_path / "one")
+    # Both workers had work: the two manifests are not empty.
+    assert all(m.stat().st_size > 0 for m in (tmp_path / "ray-out").glob("manifest-*.jsonl"))

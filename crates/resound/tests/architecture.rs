@@ -21,6 +21,7 @@ const ORDER: &[&str] = &[
     "resound-bench",
     "resound-bevy",
     "resound-cli",
+    "resound-py",
 ];
 
 /// Normal (not dev or build) dependencies of each workspace crate on workspace crates.
