@@ -25,6 +25,8 @@ import ray
 @ray.remote(num_cpus=1, max_retries=3)
 def render_shard(jobs: str, out: str, i: int, n: int, cache: str | None,
                  library: str | None) -> dict:
+    # The modal solve's threads: this task's one CPU (read when the pool starts).
+    os.environ.setdefault("RAYON_NUM_THREADS", "1")
     import resound
 
     return resound.batch(jobs, out, shard=(i, n), cache=cache, library=library)

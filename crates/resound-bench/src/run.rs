@@ -1157,7 +1157,10 @@ fn run_batch_bench(a: BatchBenchArgs) -> Result<()> {
     }
     std::fs::write(d.join("jobs.jsonl"), jobs)?;
     let n_jobs = a.meshes * a.hits;
-    let start = |out: &str, shard: &str| -> Result<std::process::Child> {
+    // Each worker gets its share of the cores for the modal solve's threads (as a cluster
+    // recipe gives each task its CPUs), else two workers fight over every core.
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let start = |out: &str, shard: &str, threads: usize| -> Result<std::process::Child> {
         Command::new(&exe)
             .args([
                 "batch",
@@ -1168,6 +1171,7 @@ fn run_batch_bench(a: BatchBenchArgs) -> Result<()> {
                 shard,
                 "--json",
             ])
+            .env("RAYON_NUM_THREADS", threads.to_string())
             .current_dir(d)
             .stdout(std::process::Stdio::piped())
             .stderr(std::process::Stdio::null())
@@ -1194,13 +1198,14 @@ fn run_batch_bench(a: BatchBenchArgs) -> Result<()> {
         eprintln!("bench batch: {n_jobs} jobs, 1 worker ...");
     }
     let t0 = std::time::Instant::now();
-    let one = finish(start("one", "0/1")?)?;
+    let one = finish(start("one", "0/1", cores)?)?;
     let one_s = t0.elapsed().as_secs_f64();
     if !a.json {
         eprintln!("bench batch: {n_jobs} jobs, 2 workers ...");
     }
     let t1 = std::time::Instant::now();
-    let (c0, c1) = (start("two", "0/2")?, start("two", "1/2")?);
+    let half = (cores / 2).max(1);
+    let (c0, c1) = (start("two", "0/2", half)?, start("two", "1/2", half)?);
     let (s0, s1) = (finish(c0)?, finish(c1)?);
     let two_s = t1.elapsed().as_secs_f64();
     if one.rendered != n_jobs || s0.rendered + s1.rendered != n_jobs {
@@ -1228,6 +1233,7 @@ fn run_batch_bench(a: BatchBenchArgs) -> Result<()> {
         models_solved: usize,
         models_solved_two_workers: usize,
         shard_jobs_two_workers: [usize; 2],
+        cores: usize,
     }
     let first2 = match (s0.first_output_s, s1.first_output_s) {
         (Some(a), Some(b)) => Some(a.min(b)),
@@ -1249,6 +1255,7 @@ fn run_batch_bench(a: BatchBenchArgs) -> Result<()> {
         models_solved: one.models_solved,
         models_solved_two_workers: s0.models_solved + s1.models_solved,
         shard_jobs_two_workers: [s0.rendered, s1.rendered],
+        cores,
     };
     if a.json {
         println!("{}", serde_json::to_string_pretty(&v)?);

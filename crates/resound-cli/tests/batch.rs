@@ -109,11 +109,17 @@ fn shards_of_the_slurm_and_kubernetes_recipes_make_exactly_the_unsharded_run() {
     meshes(d);
     std::fs::write(d.join("jobs.jsonl"), JOBS).unwrap();
 
-    let one: Value = serde_json::from_str(&ok(&resound(
-        &["batch", "jobs.jsonl", "--out", "one", "--json"],
-        d,
-    )))
-    .unwrap();
+    // The recipes give each task one thread (RAYON_NUM_THREADS=1), and a modal solve's
+    // parallel sums round differently with another thread count: the reference runs with one
+    // thread too, so the files must agree to the bit.
+    let reference_run = Command::new(bin())
+        .args(["batch", "jobs.jsonl", "--out", "one", "--json"])
+        .current_dir(d)
+        .env("RESOUND_LIBRARY", d.join(".test-library.sqlite"))
+        .env("RAYON_NUM_THREADS", "1")
+        .output()
+        .unwrap();
+    let one: Value = serde_json::from_str(&ok(&reference_run)).unwrap();
     assert_eq!(one["jobs"], 8);
     assert_eq!(one["shard_jobs"], 8);
     // 4 + 1 + 1 + 2 + 2 + 1 + 1 strikes; the last job repeats one of the first.
@@ -205,10 +211,30 @@ fn shards_of_the_slurm_and_kubernetes_recipes_make_exactly_the_unsharded_run() {
         &format!("exec {}", bin()),
         1,
     );
+    // The container's environment, as the pod would have it.
+    let env: Vec<(String, String)> = container["env"]
+        .as_vec()
+        .map(|v| {
+            v.iter()
+                .map(|e| {
+                    (
+                        e["name"].as_str().unwrap().to_string(),
+                        e["value"].as_str().unwrap().to_string(),
+                    )
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    assert!(
+        env.iter()
+            .any(|(k, v)| k == "RAYON_NUM_THREADS" && v == "1"),
+        "{env:?}"
+    );
     let pods: Vec<_> = (0..n)
         .map(|k| {
             Command::new(shell)
                 .args(["-c", &local])
+                .envs(env.iter().map(|(k, v)| (k.as_str(), v.as_str())))
                 .current_dir(d)
                 .env("RESOUND_LIBRARY", d.join(".test-library.sqlite"))
                 .env("JOB_COMPLETION_INDEX", k.to_string())

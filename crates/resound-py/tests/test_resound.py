@@ -307,7 +307,14 @@ def test_the_ray_recipe_on_a_local_instance_with_two_workers_makes_the_unsharded
             jobs.append({"mesh": name, "material": mat, "modes": 12, "duration_s": 0.2,
                          "hits": [[x / 2, y / 5, z / 5], [x / 5, y / 2, z / 7]]})
     (tmp_path / "jobs.jsonl").write_text("\n".join(map(json.dumps, jobs)) + "\n")
-    one = resound.batch(tmp_path / "jobs.jsonl", tmp_path / "one")
+    # Each Ray task solves with one thread; a solve's parallel sums round differently with
+    # another thread count, so the reference runs single-threaded too (the CLI and the package
+    # write the same bytes: test_batch_from_python_writes_what_the_cli_writes).
+    ref = subprocess.run([CLI, "batch", "jobs.jsonl", "--out", "one", "--json"], cwd=tmp_path,
+                         env={**os.environ, "RAYON_NUM_THREADS": "1"}, capture_output=True,
+                         text=True)
+    assert ref.returncode == 0, ref.stderr
+    one = json.loads(ref.stdout)
     assert one["rendered"] == 16 and not one["failures"]
     script = REPO / "recipes/ray/batch_ray.py"
     run = subprocess.run([sys.executable, str(script), "jobs.jsonl", "ray-out", "--num-cpus", "2",
