@@ -356,6 +356,7 @@ fn read_manifest(path: &Path) -> Result<Vec<ManifestEntry>> {
     };
     let mut entries = Vec::new();
     let mut clean = true;
+    let last = text.lines().count();
     for (k, line) in text.lines().enumerate() {
         if line.trim().is_empty() {
             continue;
@@ -363,7 +364,7 @@ fn read_manifest(path: &Path) -> Result<Vec<ManifestEntry>> {
         match serde_json::from_str::<ManifestEntry>(line) {
             Ok(e) => entries.push(e),
             // Only the last line can be cut short by a kill.
-            Err(_) if k + 1 == text.lines().count() => clean = false,
+            Err(_) if k + 1 == last => clean = false,
             Err(e) => {
                 return Err(invalid(format!(
                     "{}: line {}: not a manifest entry ({e})",
