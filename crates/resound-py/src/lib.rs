@@ -286,6 +286,25 @@ impl ModalModel {
         Ok((h.at.point, h.at.distance, PyArray1::from_vec(py, h.gains)))
     }
 
+    /// The damped modes of an object of `material` struck at `point` (m), per unit impulse
+    /// (Ren eqs. 6–11): (n, 4) — Hz, 1/s, amplitude, rad; modes at or above `max_freq_hz` left
+    /// out.
+    #[pyo3(signature = (material, point, max_freq_hz=24000.0, library=None))]
+    fn modes<'py>(
+        &self,
+        py: Python<'py>,
+        material: &str,
+        point: [f64; 3],
+        max_freq_hz: f64,
+        library: Option<PathBuf>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let sm = crate::material(material, library.as_deref())?;
+        let m = &self.inner;
+        let h = m.hit(point).map_err(err)?;
+        let gamma0 = m.material.youngs_modulus / m.material.density;
+        modes_array(py, &sm.modes(&m.eigenvalues, &h.gains, gamma0, max_freq_hz))
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "ModalModel({} modes, {} surface vertices, {} FEM dofs)",
@@ -535,6 +554,52 @@ impl ModeStatistics {
         modes_array(py, &m)
     }
 
+    /// Writes the statistics file (`resound stats fit`'s format), atomically.
+    fn save(&self, path: PathBuf) -> PyResult<()> {
+        resound::files::write_json(&path, &*self.inner).map_err(err)
+    }
+
+    /// Fits statistics of `material` to recordings of it (the first strike of each, high-passed
+    /// at `highpass_hz`): `modes` modes per impulse response plus the transient bands (Traer
+    /// 2019 eq. 3).
+    #[staticmethod]
+    #[pyo3(signature = (recordings, material, modes=15, highpass_hz=None))]
+    fn fit(
+        py: Python<'_>,
+        recordings: Vec<PathBuf>,
+        material: &str,
+        modes: usize,
+        highpass_hz: Option<f64>,
+    ) -> PyResult<Self> {
+        let s = py
+            .detach(|| {
+                resound::files::fit_stats(&recordings, material, modes, highpass_hz, &|_, _| {})
+            })
+            .map_err(err)?;
+        Ok(Self {
+            inner: Arc::new(s),
+            name: material.to_string(),
+        })
+    }
+
+    /// Every PyImpact table (`<material>_<size>_mm.json`) in `dir`, by name (`<material>_<size>`).
+    #[staticmethod]
+    fn import_pyimpact(dir: PathBuf) -> PyResult<Vec<(String, Self)>> {
+        Ok(resound::files::import_pyimpact(&dir)
+            .map_err(err)?
+            .into_iter()
+            .map(|(name, s)| {
+                (
+                    name.clone(),
+                    Self {
+                        inner: Arc::new(s),
+                        name,
+                    },
+                )
+            })
+            .collect())
+    }
+
     /// The statistics as JSON.
     fn to_json(&self) -> PyResult<String> {
         json(&*self.inner)
@@ -598,6 +663,291 @@ fn render_scene<'py>(
     let r = py
         .detach(|| resound::scene::render_scene(&path, &params, &|_| {}, &|_| {}))
         .map_err(err)?;
+    scene_out(py, r)
+}
+
+/// Renders a scrape (Traer 2019 §4) of an object with `modes` (n, 4, per unit impulse) along
+/// a constant-speed path or a trajectory (n, 2: time s, position m): samples float32 (not
+/// normalized) and the length scraped, m.
+#[pyfunction]
+#[pyo3(signature = (modes, speed_m_s=None, trajectory=None, duration_s=2.0, surface="fractal", roughness_m=5e-6, surface_spacing_m=1e-5, probe_mass_kg=0.01, friction=100.0, gamma=1.0, tip_width_m=2e-4, irs=8, seed=1, sample_rate=48000))]
+fn render_scrape<'py>(
+    py: Python<'py>,
+    modes: PyReadonlyArray2<'py, f64>,
+    speed_m_s: Option<f64>,
+    trajectory: Option<PyReadonlyArray2<'py, f64>>,
+    duration_s: f64,
+    surface: &str,
+    roughness_m: f64,
+    surface_spacing_m: f64,
+    probe_mass_kg: f64,
+    friction: f64,
+    gamma: f64,
+    tip_width_m: f64,
+    irs: usize,
+    seed: u64,
+    sample_rate: u32,
+) -> PyResult<(Bound<'py, PyArray1<f32>>, f64)> {
+    use resound::scrape::{render_scrape, Path1d, ScrapeJob, SurfaceSpec};
+    let path = match (speed_m_s, trajectory) {
+        (Some(v), None) => Path1d::Speed(v),
+        (None, Some(t)) => {
+            let t = t.as_array();
+            if t.ncols() != 2 || t.nrows() < 2 {
+                return Err(ResoundError::new_err(format!(
+                    "a trajectory is shaped (n ≥ 2, 2): time s, position m; got {:?}",
+                    t.shape()
+                )));
+            }
+            let pts: Vec<(f64, f64)> = t.rows().into_iter().map(|r| (r[0], r[1])).collect();
+            if pts.iter().any(|p| !(p.0.is_finite() && p.1.is_finite()))
+                || pts.windows(2).any(|w| w[1].0 <= w[0].0)
+            {
+                return Err(ResoundError::new_err(
+                    "trajectory times must increase and every value be finite",
+                ));
+            }
+            Path1d::Trajectory(pts)
+        }
+        _ => {
+            return Err(ResoundError::new_err(
+                "give the probe's path: speed_m_s or trajectory (not both)",
+            ))
+        }
+    };
+    let surface = if surface == "fractal" {
+        SurfaceSpec::Fractal { roughness_m }
+    } else {
+        SurfaceSpec::Profile(PathBuf::from(surface))
+    };
+    let job = ScrapeJob {
+        modes: modes_from(&modes)?,
+        surface,
+        surface_spacing_m,
+        path,
+        params: resound::synth::scrape::ScrapeParams {
+            probe_mass_kg,
+            friction,
+            gamma,
+            tip_width_m,
+        },
+        irs,
+        seed,
+        duration_s,
+        sample_rate_hz: sample_rate,
+    };
+    let (x, path_m) = py.detach(|| render_scrape(&job)).map_err(err)?;
+    Ok((x.into_pyarray(py), path_m))
+}
+
+fn kind_rule(kind: &str) -> PyResult<resound::grain_files::KindRule> {
+    resound::grain_files::parse_kind(kind).ok_or_else(|| {
+        ResoundError::new_err(format!(
+            "unknown contact kind {kind:?} (auto, impact, rolling, sliding, continuous)"
+        ))
+    })
+}
+
+fn grain_params(
+    min_db: f64,
+    peaks: Option<usize>,
+    min_corr: f64,
+) -> resound::grains::AnalyzeParams {
+    let mut params = resound::grains::AnalyzeParams::default();
+    params.segment.min_db = min_db;
+    params.pattern.peaks_per_part = peaks;
+    params.pattern.min_corr = min_corr;
+    params
+}
+
+/// Cuts recordings into grains and correlation patterns (Picard 2009) and saves the
+/// dictionary to `output`: its figures as JSON. `recordings` are file paths (a `kind:` prefix
+/// sets one's kind), or, with `arrays`, names of the mono float32 `arrays` at `sample_rate`.
+#[pyfunction]
+#[pyo3(signature = (recordings, output, arrays=None, sample_rate=None, kind="auto", kinds=None, min_db=-50.0, peaks=None, min_corr=0.5, prune=None), text_signature = "(recordings, output, arrays=None, sample_rate=None, kind='auto', kinds=None, min_db=-50.0, peaks=None, min_corr=0.5, prune=None)")]
+fn grains_analyze(
+    py: Python<'_>,
+    recordings: Vec<String>,
+    output: PathBuf,
+    arrays: Option<Vec<PyReadonlyArray1<'_, f32>>>,
+    sample_rate: Option<f64>,
+    kind: &str,
+    kinds: Option<Vec<String>>,
+    min_db: f64,
+    peaks: Option<usize>,
+    min_corr: f64,
+    prune: Option<f64>,
+) -> PyResult<String> {
+    use resound::grain_files::{analyze_to_file, load_recordings, recording_from_samples};
+    let rule = kind_rule(kind)?;
+    let (recs, fs) = match arrays {
+        None => {
+            let rate = sample_rate.map(|r| r.round() as u32);
+            let (r, fs, _) = py
+                .detach(|| load_recordings(&recordings, rule, rate))
+                .map_err(err)?;
+            (r, fs)
+        }
+        Some(arrays) => {
+            let Some(fs) = sample_rate else {
+                return Err(ResoundError::new_err("arrays need sample_rate="));
+            };
+            if arrays.len() != recordings.len() {
+                return Err(ResoundError::new_err(format!(
+                    "{} names for {} arrays",
+                    recordings.len(),
+                    arrays.len()
+                )));
+            }
+            let mut total_s = 0.0;
+            let mut out = Vec::with_capacity(arrays.len());
+            for (k, (name, a)) in recordings.iter().zip(&arrays).enumerate() {
+                let r = match kinds.as_ref().and_then(|ks| ks.get(k)) {
+                    Some(kk) => kind_rule(kk)?,
+                    None => rule,
+                };
+                let samples = a.as_array().iter().copied().collect::<Vec<f32>>();
+                total_s += samples.len() as f64 / fs;
+                let rec = recording_from_samples(name.clone(), samples, fs, r).map_err(|e| {
+                    ResoundError::new_err(format!("{name}: {:#}", anyhow::Error::from(e)))
+                })?;
+                out.push(rec);
+            }
+            if total_s > resound::grain_files::MAX_TOTAL_S {
+                return Err(ResoundError::new_err(format!(
+                    "the recordings add up to more than {:.0} s; analyse them in groups",
+                    resound::grain_files::MAX_TOTAL_S
+                )));
+            }
+            (out, fs)
+        }
+    };
+    let params = grain_params(min_db, peaks, min_corr);
+    let made = py
+        .detach(|| analyze_to_file(&recs, fs, &params, prune, &output, &|_, _| {}))
+        .map_err(err)?;
+    json(&made)
+}
+
+/// A recording of a dictionary, by index or name.
+#[derive(FromPyObject)]
+enum RecordingRef {
+    Index(usize),
+    Name(String),
+}
+
+/// A grain dictionary (`resound grains analyze`): grains and correlation patterns of
+/// recordings (Picard 2009).
+#[pyclass(frozen, module = "resound")]
+struct GrainDictionary {
+    inner: Arc<resound::grains::Dictionary>,
+}
+
+#[pymethods]
+impl GrainDictionary {
+    /// Reads a `.grains` file.
+    #[staticmethod]
+    fn load(path: PathBuf) -> PyResult<Self> {
+        let d = resound::io::grains_file::load(&path).map_err(err)?;
+        Ok(Self { inner: Arc::new(d) })
+    }
+
+    /// Sample rate of the grains, Hz.
+    #[getter]
+    fn sample_rate(&self) -> f64 {
+        self.inner.sample_rate_hz
+    }
+
+    /// The recordings: (name, contact kind, samples).
+    #[getter]
+    fn recordings(&self) -> Vec<(String, String, u32)> {
+        self.inner
+            .recordings
+            .iter()
+            .map(|r| {
+                (
+                    r.name.clone(),
+                    format!("{:?}", r.contact).to_lowercase(),
+                    r.samples,
+                )
+            })
+            .collect()
+    }
+
+    /// The dictionary's figures (grains, sizes, compression) as JSON.
+    fn summary(&self) -> PyResult<String> {
+        json(&resound::grain_files::summary(&self.inner, None).map_err(err)?)
+    }
+
+    /// Rebuilds recording `recording` (index or name), time-scaled by `time_scale` and varied
+    /// by `variation` (0–1) with `seed`: float32 samples at the dictionary's rate, at the
+    /// recording's level.
+    #[pyo3(signature = (recording, time_scale=1.0, variation=0.0, seed=1))]
+    fn resynthesize<'py>(
+        &self,
+        py: Python<'py>,
+        recording: RecordingRef,
+        time_scale: f64,
+        variation: f64,
+        seed: u64,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let spec = match recording {
+            RecordingRef::Index(k) => k.to_string(),
+            RecordingRef::Name(s) => s,
+        };
+        let k = resound::grain_files::recording_index(&self.inner, &spec).map_err(err)?;
+        let p = resound::grains::resynth::ResynthParams {
+            time_scale,
+            variation,
+            seed,
+        };
+        let d = &self.inner;
+        let y = py
+            .detach(|| resound::grains::resynth::resynthesize(d, k, &p))
+            .map_err(err)?;
+        Ok(y.into_pyarray(py))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "GrainDictionary({} recordings, {} Hz)",
+            self.inner.recordings.len(),
+            self.inner.sample_rate_hz
+        )
+    }
+}
+
+/// Renders a scene given as JSON (the scene file's fields; relative paths from `base_dir`):
+/// as [`render_scene`].
+#[pyfunction]
+#[pyo3(signature = (scene_json, base_dir, library=None, keep_level=false))]
+fn render_scene_json<'py>(
+    py: Python<'py>,
+    scene_json: &str,
+    base_dir: PathBuf,
+    library: Option<PathBuf>,
+    keep_level: bool,
+) -> PyResult<(Bound<'py, PyArray2<f32>>, u32, String, String)> {
+    let value: toml::Value = serde_json::from_str(scene_json)
+        .map_err(|e| ResoundError::new_err(format!("scene: {e}")))?;
+    let text = toml::to_string(&value).map_err(|e| ResoundError::new_err(format!("scene: {e}")))?;
+    let params = resound::scene::SceneRenderParams {
+        library,
+        keep_level,
+        ..Default::default()
+    };
+    let r = py
+        .detach(|| {
+            resound::scene::render_scene_text(&text, "scene", &base_dir, &params, &|_| {}, &|_| {})
+        })
+        .map_err(err)?;
+    scene_out(py, r)
+}
+
+fn scene_out<'py>(
+    py: Python<'py>,
+    r: resound::scene::SceneRender,
+) -> PyResult<(Bound<'py, PyArray2<f32>>, u32, String, String)> {
     let n = r.channels.first().map_or(0, Vec::len);
     let flat: Vec<f32> = r.channels.iter().flatten().copied().collect();
     let audio = Array2::from_shape_vec((r.channels.len(), n), flat)
@@ -652,6 +1002,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(render_impact, m)?)?;
     m.add_function(wrap_pyfunction!(render_scene, m)?)?;
     m.add_function(wrap_pyfunction!(batch, m)?)?;
+    m.add_function(wrap_pyfunction!(render_scrape, m)?)?;
+    m.add_function(wrap_pyfunction!(grains_analyze, m)?)?;
+    m.add_function(wrap_pyfunction!(render_scene_json, m)?)?;
+    m.add_class::<GrainDictionary>()?;
     m.add_function(wrap_pyfunction!(version, m)?)?;
     Ok(())
 }

@@ -333,3 +333,198 @@ def test_the_ray_recipe_on_a_local_instance_with_two_workers_makes_the_unsharded
     assert entries(tmp_path / "ray-out") == entries(tmp_path / "one")
     # Both workers had work: the two manifests are not empty.
     assert all(m.stat().st_size > 0 for m in (tmp_path / "ray-out").glob("manifest-*.jsonl"))
+
+
+SCENE_TOML = """
+duration = 0.6
+seed = 3
+[listener]
+position = [0.0, 0.3, 0.5]
+[[body]]
+name = "table"
+fixed = true
+shape = { box = [0.6, 0.04, 0.4] }
+material = "preset:wood"
+density = 700
+position = [0.0, -0.02, 0.0]
+modes = 12
+[[body]]
+name = "ball"
+shape = { sphere = 0.02 }
+material = "preset:steel"
+density = 7850
+position = [0.0, 0.22, 0.0]
+velocity = [0.3, 0.0, 0.0]
+modes = 8
+"""
+
+
+def scene_in_code(ball_material="preset:steel"):
+    return resound.Scene(duration_s=0.6, seed=3, listener_m=(0, 0.3, 0.5)).add(
+        resound.Body("table", {"box": [0.6, 0.04, 0.4]}, "preset:wood", 700, fixed=True,
+                     position_m=(0, -0.02, 0), modes=12)).add(
+        resound.Body("ball", {"sphere": 0.02}, ball_material, 7850, position_m=(0, 0.22, 0),
+                     velocity_m_s=(0.3, 0, 0), modes=8))
+
+
+def test_a_scene_built_in_code_renders_as_its_scene_file(tmp_path):
+    (tmp_path / "s.toml").write_text(SCENE_TOML)
+    from_file = resound.render_scene(tmp_path / "s.toml", keep_level=True)
+    built = resound.render_scene(scene_in_code(), keep_level=True)
+    assert np.array_equal(built.audio, from_file.audio)
+    assert built.events == from_file.events and built.events[0]["kind"] == "impact"
+    as_dict = resound.render_scene(scene_in_code().to_dict(), keep_level=True)
+    assert np.array_equal(as_dict.audio, from_file.audio)
+    # A Material object in a built scene: steel's document sounds as preset:steel does.
+    steel = resound.material("preset:steel")
+    with_doc = resound.render_scene(scene_in_code(steel), keep_level=True)
+    assert np.array_equal(with_doc.audio, from_file.audio)
+    # A built scene's errors name the field, as a file's do.
+    bad = scene_in_code()
+    bad.bodies[1].density_kg_m3 = -1
+    with pytest.raises(resound.ResoundError, match="density"):
+        resound.render_scene(bad)
+    with pytest.raises(resound.ResoundError, match="unknown field"):
+        resound.render_scene({**scene_in_code().to_dict(), "durration": 1})
+
+
+def test_a_scrape_sounds_at_the_objects_modes_and_matches_the_cli(model, tmp_path):
+    fs = 48000
+    modes = model.modes("wood", [0.04, 0.013, 0.011], max_freq_hz=fs / 2)
+    assert modes.shape[1] == 4 and len(modes) > 5
+    x, path_m = resound.render_scrape(modes, speed_m_s=0.2, duration_s=0.5, sample_rate=fs)
+    assert x.dtype == np.float32 and x.shape == (fs // 2,) and np.all(np.isfinite(x))
+    assert abs(path_m - 0.2 * (len(x) - 1) / fs) < 1e-9
+    # Its energy is at the object's modes: the spectrum's peak is one of them.
+    spectrum = np.abs(np.fft.rfft(x * np.hanning(len(x))))
+    peak_hz = np.argmax(spectrum) * fs / len(x)
+    assert np.min(abs(modes[:, 0] - peak_hz)) < 0.02 * peak_hz
+    # A probe that does not move does not scrape.
+    still, still_m = resound.render_scrape(modes, trajectory=np.array([[0, 0.05], [0.5, 0.05]]),
+                                           duration_s=0.5, sample_rate=fs)
+    rms = lambda a: float(np.sqrt(np.mean(a.astype(np.float64) ** 2)))
+    assert still_m == 0 and rms(still) < 1e-3 * rms(x)
+    # The CLI renders the same scrape (it normalizes: compare shapes).
+    doc = {"modes": [dict(zip(["freq_hz", "damping_per_s", "amplitude", "phase_rad"], map(float, r)))
+                     for r in modes]}
+    (tmp_path / "modes.json").write_text(json.dumps(doc))
+    out = cli("scrape", "--modes", "modes.json", "--speed", "0.2", "--duration", "0.5",
+              "--sample-rate", str(fs), "--format", "float", "-o", "s.wav", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    cli_x = read_float_wav(tmp_path / "s.wav")
+    assert len(cli_x) == len(x)
+    corr = np.dot(cli_x, x) / np.sqrt(np.dot(cli_x, cli_x) * np.dot(x.astype(np.float64), x))
+    assert corr > 0.99999
+    with pytest.raises(resound.ResoundError, match="speed_m_s or trajectory"):
+        resound.render_scrape(modes, duration_s=0.5)
+    with pytest.raises(resound.ResoundError, match="increase"):
+        resound.render_scrape(modes, trajectory=np.array([[0, 0], [0, 1.0]]))
+
+
+def read_float_wav(path):
+    """A mono 32-bit float WAV (format 3), which the stdlib wave module does not read."""
+    b = Path(path).read_bytes()
+    assert b[:4] == b"RIFF" and b[8:12] == b"WAVE"
+    k = 12
+    while k < len(b):
+        tag, size = b[k:k + 4], int.from_bytes(b[k + 4:k + 8], "little")
+        if tag == b"data":
+            return np.frombuffer(b[k + 8:k + 8 + size], dtype="<f4").astype(np.float64)
+        k += 8 + size + (size & 1)
+    raise AssertionError("no data chunk")
+
+
+def clicks(fs, seconds, rate_hz, seed):
+    """Rattling: decaying 2–6 kHz bursts at random times."""
+    rng = np.random.default_rng(seed)
+    x = np.zeros(int(fs * seconds))
+    t = np.arange(int(0.01 * fs)) / fs
+    for start in rng.uniform(0, seconds - 0.02, int(rate_hz * seconds)):
+        k = int(start * fs)
+        f = rng.uniform(2000, 6000)
+        x[k:k + len(t)] += rng.uniform(0.2, 1) * np.exp(-400 * t) * np.sin(2 * np.pi * f * t)
+    return (0.5 * x / np.abs(x).max()).astype(np.float32)
+
+
+def test_grains_from_arrays_rebuild_and_time_scale_their_recording(tmp_path):
+    fs = 44100
+    x = clicks(fs, 1.0, 40, seed=5)
+    d, info = resound.analyze_grains([("rattle", x)], tmp_path / "r.grains", sample_rate=fs,
+                                     kind="impact")
+    assert isinstance(d, resound.GrainDictionary) and d.sample_rate == fs
+    assert d.recordings == [("rattle", "impact", len(x))]
+    assert info["grains"] > 10 and info["file_bytes"] == (tmp_path / "r.grains").stat().st_size
+    y = d.resynthesize("rattle")
+    assert y.dtype == np.float32 and abs(len(y) - len(x)) <= fs // 100
+    # A rebuild at the recording's level, correlated with it.
+    n = min(len(x), len(y))
+    corr = np.dot(x[:n], y[:n]) / np.sqrt(np.dot(x[:n], x[:n]) * np.dot(y[:n], y[:n]))
+    assert corr > 0.5
+    assert info["recordings"][0]["spectral_convergence_db"] < -3
+    slow = d.resynthesize(0, time_scale=2.0)
+    # Time-scaled: onsets twice as far apart (grains keep their own length), so the times by
+    # which a quarter, half and three quarters of the energy has come double.
+    def energy_times(a):
+        c = np.cumsum(a.astype(np.float64) ** 2)
+        return np.searchsorted(c, [0.25 * c[-1], 0.5 * c[-1], 0.75 * c[-1]]) / fs
+    ratio = energy_times(slow) / energy_times(x)
+    assert np.all(abs(ratio - 2.0) < 0.1), ratio
+    assert 1.9 < len(slow) / len(x) < 2.05
+    assert json.loads(d.summary())["grains"] == info["grains"]
+    with pytest.raises(resound.ResoundError, match="no recording 'nope'"):
+        d.resynthesize("nope")
+    with pytest.raises(resound.ResoundError, match="silent"):
+        resound.analyze_grains([("quiet", np.zeros(fs, np.float32))], tmp_path / "q.grains",
+                               sample_rate=fs)
+
+
+def test_grains_from_a_real_file_match_the_cli(tmp_path):
+    ogg = ASSETS / "recordings/default_dig_choppy.1.ogg"
+    d, info = resound.analyze_grains([ogg], tmp_path / "py.grains")
+    out = cli("grains", "analyze", str(ogg), "-o", "cli.grains", "--json", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    theirs = json.loads(out.stdout)
+    for k in ("grains", "impulsive", "sinusoidal", "transient", "grain_bytes", "file_bytes"):
+        assert info[k] == theirs[k], k
+    assert (tmp_path / "py.grains").read_bytes() == (tmp_path / "cli.grains").read_bytes()
+
+
+def write_wav16(path, x, fs):
+    import wave
+    with wave.open(str(path), "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(fs)
+        w.writeframes((np.clip(x, -1, 1) * 32767).astype("<i2").tobytes())
+
+
+def test_statistics_fit_from_python_as_the_cli_and_pyimpact_tables_import(model, tmp_path):
+    fs = 44100
+    files = []
+    for k, hit in enumerate([[0.04, 0.013, 0.011], [0.01, 0.03, 0.02], [-0.03, -0.01, 0.025],
+                             [0.02, -0.03, -0.01]]):
+        x = resound.render_strike("plastic", model, hit, duration_s=0.5, sample_rate=fs,
+                                  residual=False)
+        rec = np.concatenate([np.zeros(2000), 0.5 * x / np.abs(x).max()])
+        files.append(tmp_path / f"plastic{k}.wav")
+        write_wav16(files[-1], rec, fs)
+    s = resound.fit_stats(files, "plastic", modes=6)
+    assert s.name == "plastic" and s.modes == 6
+    s.save(tmp_path / "py.stats.json")
+    out = cli("stats", "fit", *map(str, files), "--material", "plastic", "--modes", "6",
+              "-o", "cli.stats.json", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert json.loads((tmp_path / "py.stats.json").read_text()) == \
+        json.loads((tmp_path / "cli.stats.json").read_text())
+    # What the fit samples lies among the recorded object's modes (plastic: wood's modes on
+    # this small box are damped too fast to analyse).
+    f = model.frequencies_hz("plastic")
+    ir = resound.ModeStatistics.load(tmp_path / "py.stats.json").sample(1)
+    assert f.min() * 0.7 < np.median(ir[:, 0]) < f.max() * 1.3
+    tables = resound.import_pyimpact(PYIMPACT)
+    assert list(tables) == ["metal_3"]
+    one = resound.ModeStatistics.load(PYIMPACT / "metal_3_mm.json")
+    assert np.array_equal(tables["metal_3"].sample(2), one.sample(2))
+    with pytest.raises(resound.ResoundError, match="no PyImpact tables"):
+        resound.import_pyimpact(tmp_path / "empty" if (tmp_path / "empty").mkdir() is None
+                                else tmp_path)

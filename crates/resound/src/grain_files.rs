@@ -84,47 +84,70 @@ pub fn load_recordings(
         let x = resound_signal::resample::resample(&x, clip.sample_rate_hz, target)
             .map_err(|e| invalid(e).at(path))?;
         let samples: Vec<f32> = x.iter().map(|&v| v as f32).collect();
-        let min = (MIN_RECORDING_S * f64::from(target)).ceil() as usize;
-        if samples.len() < min {
-            return Err(invalid(format!(
-                "{:.1} ms long: grains need at least {:.0} ms of audio",
-                1e3 * samples.len() as f64 / f64::from(target),
-                1e3 * MIN_RECORDING_S
-            ))
-            .at(path));
-        }
-        if samples.iter().all(|&v| v == samples[0]) {
-            return Err(
-                invalid("silent (every sample is the same): nothing to cut into grains").at(path),
-            );
-        }
-        let seconds = samples.len() as f64 / f64::from(target);
-        if seconds > MAX_RECORDING_S {
-            return Err(invalid(format!(
-                "{seconds:.0} s long: grains take recordings of at most {MAX_RECORDING_S:.0} s \
-                 (each grain is matched over the whole recording, so the cost grows with the \
-                 square of the length); cut it into parts"
-            ))
-            .at(path));
-        }
-        total_s += seconds;
+        let name = path.file_stem().map_or(String::from("recording"), |s| {
+            s.to_string_lossy().into_owned()
+        });
+        total_s += samples.len() as f64 / f64::from(target);
+        let r =
+            recording_from_samples(name, samples, f64::from(target), k).map_err(|e| e.at(path))?;
         if total_s > MAX_TOTAL_S {
             return Err(invalid(format!(
                 "the recordings add up to more than {MAX_TOTAL_S:.0} s; analyse them in groups"
             ))
             .at(path));
         }
-        let name = path.file_stem().map_or(String::from("recording"), |s| {
-            s.to_string_lossy().into_owned()
-        });
-        let contact = contact_of(k, &name, &samples, f64::from(target));
-        out.push(Recording {
-            name,
-            contact,
-            samples,
-        });
+        out.push(r);
     }
     Ok((out, f64::from(fs.unwrap_or(44_100)), bytes))
+}
+
+/// One recording of samples at `sample_rate_hz` to cut grains from, its contact kind decided
+/// by `rule` (from `name` or the envelope), checked as [`load_recordings`] checks files.
+///
+/// # Errors
+/// Recordings shorter than [`MIN_RECORDING_S`] or longer than [`MAX_RECORDING_S`], silent or
+/// with non-finite samples; a rate outside 8–384 kHz.
+pub fn recording_from_samples(
+    name: String,
+    samples: Vec<f32>,
+    sample_rate_hz: f64,
+    rule: KindRule,
+) -> Result<Recording> {
+    if !(8000.0..=384_000.0).contains(&sample_rate_hz) {
+        return Err(invalid(format!(
+            "sample rate must be within 8–384 kHz, got {sample_rate_hz} Hz"
+        )));
+    }
+    if samples.iter().any(|v| !v.is_finite()) {
+        return Err(invalid("the recording has non-finite samples"));
+    }
+    let min = (MIN_RECORDING_S * sample_rate_hz).ceil() as usize;
+    if samples.len() < min {
+        return Err(invalid(format!(
+            "{:.1} ms long: grains need at least {:.0} ms of audio",
+            1e3 * samples.len() as f64 / sample_rate_hz,
+            1e3 * MIN_RECORDING_S
+        )));
+    }
+    if samples.iter().all(|&v| v == samples[0]) {
+        return Err(invalid(
+            "silent (every sample is the same): nothing to cut into grains",
+        ));
+    }
+    let seconds = samples.len() as f64 / sample_rate_hz;
+    if seconds > MAX_RECORDING_S {
+        return Err(invalid(format!(
+            "{seconds:.0} s long: grains take recordings of at most {MAX_RECORDING_S:.0} s \
+             (each grain is matched over the whole recording, so the cost grows with the \
+             square of the length); cut it into parts"
+        )));
+    }
+    let contact = contact_of(rule, &name, &samples, sample_rate_hz);
+    Ok(Recording {
+        name,
+        contact,
+        samples,
+    })
 }
 
 /// Figures of one recording in a dictionary.

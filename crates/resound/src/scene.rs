@@ -453,20 +453,36 @@ pub fn load_scene(
     stage: &dyn Fn(&str),
 ) -> Result<(Vec<BodySpec>, SceneParams)> {
     let scene = resound_io::scene::read_scene(path)?;
-    let library = crate::material::read_library(params.library.as_deref())?;
     let base_dir = path
         .parent()
         .map_or_else(|| PathBuf::from("."), PathBuf::from);
-    build_scene(
+    build_parsed(
         &scene,
+        &base_dir,
+        &path.display().to_string(),
+        params,
+        stage,
+    )
+}
+
+fn build_parsed(
+    scene: &resound_io::scene::SceneFile,
+    base_dir: &Path,
+    label: &str,
+    params: &SceneRenderParams,
+    stage: &dyn Fn(&str),
+) -> Result<(Vec<BodySpec>, SceneParams)> {
+    let library = crate::material::read_library(params.library.as_deref())?;
+    build_scene(
+        scene,
         &BuildOptions {
-            base_dir: &base_dir,
+            base_dir,
             library: library.as_ref(),
             cache_dir: params.cache_dir.clone(),
             progress: stage,
         },
     )
-    .map_err(|e| e.context(format!("building {}", path.display())))
+    .map_err(|e| e.context(format!("building {label}")))
 }
 
 /// Reads, builds and renders the scene file `path`: `stage` gets build messages, `simulated`
@@ -485,11 +501,48 @@ pub fn render_scene(
 ) -> Result<SceneRender> {
     let t0 = std::time::Instant::now();
     let (bodies, sp) = load_scene(path, params, stage)?;
+    run_built(
+        bodies,
+        sp,
+        t0,
+        &path.display().to_string(),
+        params,
+        simulated,
+    )
+}
+
+/// [`render_scene`] of scene text (TOML, the scene file format) that is in no file: `label`
+/// names it in messages, and its relative paths (meshes, statistics, grains, textures) are
+/// taken from `base_dir`. Scenes built in code (the Python package) come this way.
+///
+/// # Errors
+/// As [`render_scene`].
+pub fn render_scene_text(
+    text: &str,
+    label: &str,
+    base_dir: &Path,
+    params: &SceneRenderParams,
+    stage: &dyn Fn(&str),
+    simulated: &dyn Fn(f64),
+) -> Result<SceneRender> {
+    let t0 = std::time::Instant::now();
+    let scene = resound_io::scene::parse_scene(text, label)?;
+    let (bodies, sp) = build_parsed(&scene, base_dir, label, params, stage)?;
+    run_built(bodies, sp, t0, label, params, simulated)
+}
+
+fn run_built(
+    bodies: Vec<BodySpec>,
+    sp: SceneParams,
+    t0: std::time::Instant,
+    label: &str,
+    params: &SceneRenderParams,
+    simulated: &dyn Fn(f64),
+) -> Result<SceneRender> {
     let build_s = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
-    let context = |e: resound_physics::SceneError| {
-        Error::from(e).context(format!("simulating {}", path.display()))
-    };
+    let context =
+        |e: resound_physics::SceneError| Error::from(e).context(format!("simulating {label}"));
     let (mut out, live) = match &params.live {
         None => (
             resound_physics::simulate(&bodies, &sp, simulated).map_err(context)?,

@@ -13,29 +13,37 @@ from __future__ import annotations
 
 import json
 import os
+import tempfile
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _native
-from ._native import ModalModel, ModeStatistics, ResoundError
+from ._native import GrainDictionary, ModalModel, ModeStatistics, ResoundError
 
 __all__ = [
+    "Body",
+    "GrainDictionary",
     "Material",
     "ModalModel",
     "ModeStatistics",
     "Modes",
     "ResoundError",
+    "Scene",
     "SceneRender",
     "analyze",
+    "analyze_grains",
     "batch",
     "estimate_material",
+    "fit_stats",
+    "import_pyimpact",
     "material",
     "materials",
     "render_impact",
     "render_modes",
     "render_scene",
+    "render_scrape",
     "render_strike",
     "save_material",
 ]
@@ -267,13 +275,243 @@ class SceneRender:
     summary: Dict[str, Any]
 
 
-def render_scene(path: PathLike, *, library: Optional[PathLike] = None,
+def _vec3(v: Optional[Sequence[float]]) -> Optional[List[float]]:
+    if v is None:
+        return None
+    out = [float(c) for c in v]
+    if len(out) != 3:
+        raise TypeError(f"a 3-vector has 3 components, got {len(out)}")
+    return out
+
+
+@dataclass
+class Body:
+    """One body of a :class:`Scene` (the ``[[body]]`` table of a scene file).
+
+    Args:
+        name: unique name.
+        shape: ``{"box": [x, y, z]}``, ``{"plate": [x, y, thickness]}`` (full sizes, m),
+            ``{"sphere": r}``, ``{"cylinder": [r, height]}``, ``{"bowl": [r, thickness]}`` or
+            ``{"mesh": "file.obj"}``.
+        material: a library name, ``preset:NAME``, a material file, or a :class:`Material`.
+        density_kg_m3: density, kg/m³.
+        fixed: immovable (a floor, a table); it still sounds.
+        position_m, rotation_deg, velocity_m_s, angular_velocity_rad_s: the start state
+            (y is up; the rotation is a rotation vector, axis × angle in degrees).
+        restitution, friction: contact coefficients.
+        modes: modes of its modal model.
+        sound: ``True`` (its modal model), ``False`` (silent), a :class:`ModeStatistics` file
+            path as ``{"stats": path}`` or ``{"grains": path, "gain": 1.0}``.
+        extra: any other scene-file field (``surface``, ``roughness``, ``scale``, ``poisson``,
+            ``resolution``, ``surface_spacing``).
+
+    Fields left ``None`` take the scene file's defaults.
+    """
+
+    name: str
+    shape: Dict[str, Any]
+    material: MaterialLike
+    density_kg_m3: float
+    fixed: Optional[bool] = None
+    position_m: Optional[Sequence[float]] = None
+    rotation_deg: Optional[Sequence[float]] = None
+    velocity_m_s: Optional[Sequence[float]] = None
+    angular_velocity_rad_s: Optional[Sequence[float]] = None
+    restitution: Optional[float] = None
+    friction: Optional[float] = None
+    modes: Optional[int] = None
+    sound: Optional[Union[bool, Dict[str, Any]]] = None
+    extra: Dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self, material_file: Optional[str] = None) -> Dict[str, Any]:
+        """The body as a scene file's table (``material_file`` stands in for a Material)."""
+        d: Dict[str, Any] = {
+            "name": self.name,
+            "shape": dict(self.shape),
+            "material": material_file if material_file is not None
+            else _material_spec(self.material),
+            "density": float(self.density_kg_m3),
+        }
+        opt = {
+            "fixed": self.fixed,
+            "position": _vec3(self.position_m),
+            "rotation": _vec3(self.rotation_deg),
+            "velocity": _vec3(self.velocity_m_s),
+            "angular_velocity": _vec3(self.angular_velocity_rad_s),
+            "restitution": self.restitution,
+            "friction": self.friction,
+            "modes": self.modes,
+            "sound": self.sound,
+        }
+        d.update({k: v for k, v in opt.items() if v is not None})
+        for k, v in self.extra.items():
+            if k in d:
+                raise TypeError(f"body {self.name!r}: extra field {k!r} is a named argument")
+            d[k] = v
+        return d
+
+
+@dataclass
+class Scene:
+    """A scene built in code: what a scene file (TOML) holds. Render it with
+    :func:`render_scene`; ``to_dict()`` gives the scene file's fields."""
+
+    bodies: List[Body] = field(default_factory=list)
+    duration_s: Optional[float] = None
+    sample_rate: Optional[int] = None
+    seed: Optional[int] = None
+    stereo: Optional[bool] = None
+    steps_per_second: Optional[float] = None
+    gravity_m_s2: Optional[Sequence[float]] = None
+    listener_m: Optional[Sequence[float]] = None
+
+    def add(self, body: Body) -> "Scene":
+        """Appends ``body``; returns the scene (for chaining)."""
+        self.bodies.append(body)
+        return self
+
+    def to_dict(self, material_files: Optional[Dict[str, str]] = None) -> Dict[str, Any]:
+        files = material_files or {}
+        d: Dict[str, Any] = {}
+        opt = {
+            "duration": self.duration_s,
+            "sample_rate": self.sample_rate,
+            "seed": self.seed,
+            "stereo": self.stereo,
+            "steps_per_second": self.steps_per_second,
+            "gravity": _vec3(self.gravity_m_s2),
+        }
+        d.update({k: v for k, v in opt.items() if v is not None})
+        if self.listener_m is not None:
+            d["listener"] = {"position": _vec3(self.listener_m)}
+        d["body"] = [b.to_dict(files.get(b.name)) for b in self.bodies]
+        return d
+
+
+@dataclass(frozen=True)
+class SceneRender:
+    """A rendered scene: ``audio`` float32 (channels, samples) at ``sample_rate`` Hz, the
+    contact ``events`` (time, bodies, kind, force, …) and the ``summary`` figures."""
+
+    audio: np.ndarray
+    sample_rate: int
+    events: List[Dict[str, Any]]
+    summary: Dict[str, Any]
+
+
+def render_scene(scene: Union[PathLike, Scene, Dict[str, Any]], *,
+                 base_dir: Optional[PathLike] = None, library: Optional[PathLike] = None,
                  keep_level: bool = False) -> SceneRender:
-    """Simulates and renders a scene file (TOML: bodies, materials, listener), as
-    ``resound scene``. ``keep_level`` keeps the physical level (else peak-normalized)."""
-    audio, fs, events, summary = _native.render_scene(os.fspath(path), _opt_path(library),
-                                                      keep_level)
+    """Simulates and renders a scene, as ``resound scene``: a scene file (TOML: bodies,
+    materials, listener), a :class:`Scene` built in code, or a dict of the scene file's fields.
+    Relative paths in a built scene (meshes, statistics, grains) are taken from ``base_dir``
+    (default: the working directory). ``keep_level`` keeps the physical level (else
+    peak-normalized)."""
+    if isinstance(scene, (str, os.PathLike)):
+        if base_dir is not None:
+            raise TypeError("base_dir is for scenes built in code; a file's paths are its own")
+        audio, fs, events, summary = _native.render_scene(os.fspath(scene), _opt_path(library),
+                                                          keep_level)
+        return SceneRender(audio, fs, json.loads(events), json.loads(summary))
+    base = os.fspath(base_dir) if base_dir is not None else os.getcwd()
+    with tempfile.TemporaryDirectory(prefix="resound-scene-") as tmp:
+        if isinstance(scene, Scene):
+            files: Dict[str, str] = {}
+            for b in scene.bodies:
+                if isinstance(b.material, Material):
+                    f = os.path.join(tmp, f"material-{len(files)}.json")
+                    with open(f, "w", encoding="utf-8") as out:
+                        out.write(b.material.to_json())
+                    files[b.name] = f
+            doc = scene.to_dict(files)
+        elif isinstance(scene, dict):
+            doc = scene
+        else:
+            raise TypeError(f"a scene is a file, a Scene or a dict, not {type(scene).__name__}")
+        audio, fs, events, summary = _native.render_scene_json(json.dumps(doc), base,
+                                                               _opt_path(library), keep_level)
     return SceneRender(audio, fs, json.loads(events), json.loads(summary))
+
+
+def render_scrape(modes: Union[Modes, np.ndarray], *, speed_m_s: Optional[float] = None,
+                  trajectory: Optional[np.ndarray] = None, duration_s: float = 2.0,
+                  surface: Union[str, PathLike] = "fractal", roughness_m: float = 5e-6,
+                  surface_spacing_m: float = 1e-5, probe_mass_kg: float = 0.01,
+                  friction: float = 100.0, gamma: float = 1.0, tip_width_m: float = 2e-4,
+                  irs: int = 8, seed: int = 1, sample_rate: int = 48000
+                  ) -> Tuple[np.ndarray, float]:
+    """A probe scraped over a surface texture on an object (Traer 2019 §4, eq. 8–9), as
+    ``resound scrape``: float32 samples (not normalized) and the length scraped, m.
+
+    Args:
+        modes: the object's modes per unit impulse — :meth:`ModalModel.modes`,
+            :meth:`ModeStatistics.sample`, or analysed :class:`Modes`.
+        speed_m_s: a constant scraping speed, m/s; or
+        trajectory: (n, 2) points of time s and position along the surface m.
+        surface: ``"fractal"`` (a 1/f² Brownian profile of RMS ``roughness_m``) or a height
+            profile (``.npy``, m, sampled every ``surface_spacing_m``; quilted to length).
+        probe_mass_kg, friction, gamma: eq. 8's probe mass, shear friction A and exponent γ.
+        tip_width_m: the probe tip's width (a spatial low-pass of the texture), m.
+        irs: location-dependent impulse responses along the path (eq. 9), 1–256.
+        seed: surface, quilting and IR variation.
+    """
+    rows = modes.to_array() if isinstance(modes, Modes) else np.asarray(modes, np.float64)
+    traj = None if trajectory is None else np.ascontiguousarray(trajectory, dtype=np.float64)
+    return _native.render_scrape(np.ascontiguousarray(rows.reshape(-1, 4)), speed_m_s, traj,
+                                 duration_s, os.fspath(surface), roughness_m, surface_spacing_m,
+                                 probe_mass_kg, friction, gamma, tip_width_m, irs, seed,
+                                 sample_rate)
+
+
+def analyze_grains(recordings: Sequence[Union[PathLike, Tuple[str, np.ndarray]]],
+                   output: PathLike, *, sample_rate: Optional[float] = None,
+                   kind: str = "auto", min_db: float = -50.0, peaks: Optional[int] = None,
+                   min_corr: float = 0.5, prune: Optional[float] = None
+                   ) -> Tuple[GrainDictionary, Dict[str, Any]]:
+    """Cuts recordings of non-modal contact (rolling, rattling, crumbling) into grains and
+    correlation patterns (Picard 2009), as ``resound grains analyze``; saves the dictionary
+    to ``output`` and returns it with its figures.
+
+    Args:
+        recordings: files (WAV, FLAC, OGG, MP3; a ``"rolling:"`` prefix sets the kind), or
+            ``(name, samples)`` pairs of mono audio at ``sample_rate`` (all one or the other).
+        sample_rate: the arrays' rate, Hz; for files, the analysis rate (default: the first
+            file's).
+        kind: ``auto`` (from the name, else the envelope), ``impact``, ``rolling``,
+            ``sliding`` or ``continuous``.
+        min_db: drop grains this far below the loudest of their part, dB.
+        peaks: pattern peaks kept per recording part (default: automatic).
+        min_corr: smallest correlation a pattern peak may have.
+        prune: drop grains that another can stand in for at this correlation (0–1).
+    """
+    pairs = [r for r in recordings if isinstance(r, tuple)]
+    if pairs and len(pairs) != len(recordings):
+        raise TypeError("recordings are all files or all (name, samples) pairs")
+    if pairs:
+        if sample_rate is None:
+            raise TypeError("arrays need sample_rate=")
+        names = [str(n) for n, _ in pairs]
+        arrays = [np.ascontiguousarray(_mono(a, None), dtype=np.float32) for _, a in pairs]
+        rep = _native.grains_analyze(names, os.fspath(output), arrays, float(sample_rate), kind,
+                                     None, min_db, peaks, min_corr, prune)
+    else:
+        rep = _native.grains_analyze([os.fspath(r) for r in recordings], os.fspath(output),
+                                     None, sample_rate, kind, None, min_db, peaks, min_corr,
+                                     prune)
+    return GrainDictionary.load(os.fspath(output)), json.loads(rep)
+
+
+def fit_stats(recordings: Sequence[PathLike], material: str, *, modes: int = 15,
+              highpass_hz: Optional[float] = None) -> ModeStatistics:
+    """Fits per-material mode statistics (Traer 2019) to recordings of strikes of objects of
+    one material, as ``resound stats fit``; save them with :meth:`ModeStatistics.save`."""
+    return ModeStatistics.fit([os.fspath(r) for r in recordings], material, modes, highpass_hz)
+
+
+def import_pyimpact(directory: PathLike) -> Dict[str, ModeStatistics]:
+    """Every PyImpact material table (``<material>_<size>_mm.json``) in ``directory``, by
+    name (``<material>_<size>``), as ``resound stats import-pyimpact``."""
+    return dict(ModeStatistics.import_pyimpact(os.fspath(directory)))
 
 
 def batch(jobs: PathLike, out: PathLike, *, shard: Tuple[int, int] = (0, 1),

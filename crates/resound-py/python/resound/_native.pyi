@@ -2,16 +2,23 @@
 two classes are public there."""
 
 from os import PathLike
-from typing import List, Optional, Sequence, Tuple, Union
+from typing import List, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
+
+__all__ = ["ResoundError", "ModalModel", "ModeStatistics", "GrainDictionary", "analyze_file",
+           "analyze_array", "get_material", "list_materials", "save_material",
+           "estimate_material", "render_strike", "render_modes", "render_impact",
+           "render_scene", "batch", "render_scrape", "grains_analyze", "render_scene_json",
+           "version"]
 
 _Path = Union[str, PathLike[str]]
 
 class ResoundError(Exception):
     """A Resound operation failed; the message is the CLI's."""
 
+@final
 class ModalModel:
     """A modal model: frequencies and surface mode shapes of an object (Ren 2013 §3)."""
 
@@ -51,7 +58,12 @@ class ModalModel:
                                                    npt.NDArray[np.float64]]:
         """Snaps ``point`` (m) to the surface: (surface point m, distance m, each mode's gain
         there in m per N·s)."""
+    def modes(self, material: str, point: Sequence[float], max_freq_hz: float = 24000.0,
+              library: Optional[_Path] = None) -> npt.NDArray[np.float64]:
+        """The damped modes of an object of ``material`` struck at ``point`` (m), per unit
+        impulse: (n, 4) — Hz, 1/s, amplitude, rad."""
 
+@final
 class ModeStatistics:
     """Per-material mode statistics (Traer 2019)."""
 
@@ -69,6 +81,35 @@ class ModeStatistics:
     def sample(self, seed: int) -> npt.NDArray[np.float64]:
         """An impulse response drawn with ``seed``: modes (n, 4) — Hz, 1/s, amplitude, rad."""
     def to_json(self) -> str: ...
+    def save(self, path: _Path) -> None:
+        """Writes a statistics file (atomically)."""
+    @staticmethod
+    def fit(recordings: List[_Path], material: str, modes: int = 15,
+            highpass_hz: Optional[float] = None) -> "ModeStatistics":
+        """Fits statistics to recordings of strikes of one material (Traer 2019)."""
+    @staticmethod
+    def import_pyimpact(dir: _Path) -> List[Tuple[str, "ModeStatistics"]]:
+        """Every PyImpact table in ``dir``, by name."""
+
+@final
+class GrainDictionary:
+    """A grain dictionary (Picard 2009)."""
+
+    @staticmethod
+    def load(path: _Path) -> "GrainDictionary":
+        """Reads a ``.grains`` file."""
+    @property
+    def sample_rate(self) -> float:
+        """Sample rate of the grains, Hz."""
+    @property
+    def recordings(self) -> List[Tuple[str, str, int]]:
+        """The recordings: (name, contact kind, samples)."""
+    def summary(self) -> str:
+        """The dictionary's figures as JSON."""
+    def resynthesize(self, recording: Union[int, str], time_scale: float = 1.0, variation: float = 0.0,
+                     seed: int = 1) -> npt.NDArray[np.float32]:
+        """Rebuilds a recording (index or name), time-scaled and varied: float32 samples at
+        the dictionary's rate and the recording's level."""
 
 def analyze_file(path: _Path, channel: Optional[int] = None, strike: Optional[int] = None,
                  resample_hz: Optional[int] = None, max_modes: int = 64,
@@ -99,6 +140,22 @@ def render_impact(stats: ModeStatistics, seed: int = 0, speed_m_s: float = 1.0,
                   impactor_radius_m: float = 0.005) -> npt.NDArray[np.float32]: ...
 def render_scene(path: _Path, library: Optional[_Path] = None, keep_level: bool = False
                  ) -> Tuple[npt.NDArray[np.float32], int, str, str]: ...
+def render_scene_json(scene_json: str, base_dir: _Path, library: Optional[_Path] = None,
+                      keep_level: bool = False
+                      ) -> Tuple[npt.NDArray[np.float32], int, str, str]: ...
+def render_scrape(modes: npt.NDArray[np.float64], speed_m_s: Optional[float] = None,
+                  trajectory: Optional[npt.NDArray[np.float64]] = None,
+                  duration_s: float = 2.0, surface: str = "fractal",
+                  roughness_m: float = 5e-6, surface_spacing_m: float = 1e-5,
+                  probe_mass_kg: float = 0.01, friction: float = 100.0, gamma: float = 1.0,
+                  tip_width_m: float = 2e-4, irs: int = 8, seed: int = 1,
+                  sample_rate: int = 48000) -> Tuple[npt.NDArray[np.float32], float]: ...
+def grains_analyze(recordings: List[str], output: _Path,
+                   arrays: Optional[List[npt.NDArray[np.float32]]] = None,
+                   sample_rate: Optional[float] = None, kind: str = "auto",
+                   kinds: Optional[List[str]] = None, min_db: float = -50.0,
+                   peaks: Optional[int] = None, min_corr: float = 0.5,
+                   prune: Optional[float] = None) -> str: ...
 def batch(jobs: _Path, out: _Path, shard: int = 0, shards: int = 1,
           library: Optional[_Path] = None, cache: Optional[_Path] = None) -> str: ...
 def version() -> str: ...
