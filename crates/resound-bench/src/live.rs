@@ -97,6 +97,9 @@ pub fn live_run_with(
         cue_capacity: (ahead * (2 * bodies + 4)).next_power_of_two(),
         sample_capacity: ahead * (bodies * 16 + bodies.div_ceil(4) * step) + 1024,
         governor,
+        air: Some(resound_synth::air::Air::default()),
+        reflection: None,
+        ambisonics: false,
     };
     let (mut tx, mut audio) = scene_audio(&params, sources).map_err(|e| e.to_string())?;
     let pulse: Vec<f32> = {

@@ -1174,14 +1174,25 @@ fn run_batch_bench(a: BatchBenchArgs) -> Result<()> {
             .env("RAYON_NUM_THREADS", threads.to_string())
             .current_dir(d)
             .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::null())
+            // Drained with stdout by wait_with_output; shown when a worker fails.
+            .stderr(std::process::Stdio::piped())
             .spawn()
             .context("starting resound batch")
     };
     let finish = |c: std::process::Child| -> Result<BatchInfo> {
         let o = c.wait_with_output()?;
-        let v: serde_json::Value =
-            serde_json::from_slice(&o.stdout).context("reading the batch run's figures")?;
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        let tail: String = {
+            let lines: Vec<&str> = stderr.lines().collect();
+            lines[lines.len().saturating_sub(20)..].join("\n")
+        };
+        let v: serde_json::Value = match serde_json::from_slice(&o.stdout) {
+            Ok(v) => v,
+            Err(e) => bail!(
+                "resound batch ({}) printed no figures ({e}); its stderr:\n{tail}",
+                o.status
+            ),
+        };
         let info = BatchInfo {
             rendered: v["rendered"].as_u64().unwrap_or(0) as usize,
             models_solved: v["models_solved"].as_u64().unwrap_or(0) as usize,
@@ -1190,7 +1201,7 @@ fn run_batch_bench(a: BatchBenchArgs) -> Result<()> {
             ..Default::default()
         };
         if !o.status.success() {
-            bail!("resound batch failed: {v}");
+            bail!("resound batch failed ({}): {v}\n{tail}", o.status);
         }
         Ok(info)
     };

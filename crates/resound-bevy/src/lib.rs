@@ -250,6 +250,9 @@ fn start(
         cue_capacity: 1 << 14,
         sample_capacity: 1 << 20,
         governor: None,
+        air: Some(resound::synth::air::Air::default()),
+        reflection: None,
+        ambisonics: false,
     };
     match scene_audio(&params, sources) {
         Ok((tx, audio)) => {

@@ -875,6 +875,34 @@ fn demo_runs_end_to_end() {
         d,
     ));
     assert!(list.contains("demo-ramp"), "{list}");
+    // Issue 19: the objects come to rest on the table and fall quiet there (contact
+    // damping): 1 s after the last logged motion the scene is ≥ 40 dB below its level then.
+    let clip = resound::io::load_audio(&d.join("out/scene.wav")).unwrap();
+    let fs = f64::from(clip.sample_rate_hz);
+    let last = std::fs::read_to_string(d.join("out/events.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<Value>(l).unwrap()["time_s"]
+                .as_f64()
+                .unwrap()
+        })
+        .fold(0.0f64, f64::max);
+    let level = |t: f64| {
+        let (a, b) = ((t * fs) as usize, ((t + 0.1) * fs) as usize);
+        let e: f64 = clip
+            .channels
+            .iter()
+            .flat_map(|c| &c[a..b.min(c.len())])
+            .map(|&v| f64::from(v).powi(2))
+            .sum();
+        10.0 * (e / (b - a) as f64 + 1e-30).log10()
+    };
+    let drop_db = level(last) - level(last + 1.0);
+    assert!(
+        last + 1.1 < clip.frames() as f64 / fs && drop_db >= 40.0,
+        "last motion at {last:.2} s; the tail fell {drop_db:.1} dB in 1 s"
+    );
 }
 
 #[test]
@@ -1981,4 +2009,67 @@ fn bench_live_reports_callback_times_on_the_simulated_clock() {
     );
     assert!(p50 > 0.0 && p50 <= p99, "{v}");
     assert!(!v["search"].as_array().unwrap().is_empty());
+}
+
+#[test]
+fn issue_19_scenes_write_ambisonics_with_a_floor_and_reject_bad_air() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = r#"
+duration = 0.5
+ambisonics = true
+[listener]
+position = [0.0, 0.3, 0.5]
+[floor]
+height = -0.5
+reflection = 0.9
+[air]
+temperature = 25.0
+humidity = 40.0
+
+[[body]]
+name = "table"
+fixed = true
+shape = { box = [0.6, 0.04, 0.4] }
+material = "preset:wood"
+density = 700
+position = [0.0, -0.02, 0.0]
+modes = 12
+
+[[body]]
+name = "ball"
+shape = { sphere = 0.02 }
+material = "preset:steel"
+density = 7850
+position = [0.3, 0.22, 0.0]
+modes = 8
+"#;
+    std::fs::write(d.join("s.toml"), scene).unwrap();
+    ok(&resound(
+        &["scene", "s.toml", "-o", "s.wav", "--library", "lib.sqlite"],
+        d,
+    ));
+    let clip = resound::io::load_audio(&d.join("s.wav")).unwrap();
+    assert_eq!(clip.channels.len(), 4, "W Y Z X");
+    let energy = |c: &[f32]| c.iter().map(|&v| f64::from(v).powi(2)).sum::<f64>();
+    let e: Vec<f64> = clip.channels.iter().map(|c| energy(c)).collect();
+    // The table sounds from below and in front of the listener, the ball from the right: W
+    // carries everything, and no first-order channel exceeds it.
+    assert!(
+        e[0] > 0.0 && e[1..].iter().all(|&x| x <= e[0] * 1.0001),
+        "{e:?}"
+    );
+    for (bad, what) in [
+        ("[air]\nhumidity = 120.0\n", "humidity"),
+        ("[floor]\nreflection = 1.5\n", "reflection"),
+    ] {
+        let text = scene
+            .replace("[air]\ntemperature = 25.0\nhumidity = 40.0\n", "")
+            .replace("[floor]\nheight = -0.5\nreflection = 0.9\n", bad);
+        std::fs::write(d.join("bad.toml"), text).unwrap();
+        let out = resound(&["scene", "bad.toml", "-o", "b.wav"], d);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && err.contains(what), "{err}");
+        assert!(!d.join("b.wav").exists());
+    }
 }

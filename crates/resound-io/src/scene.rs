@@ -6,9 +6,20 @@
 //! sample_rate = 48000       # Hz
 //! seed = 1                  # surface textures
 //! stereo = true
+//! ambisonics = false        # true: 4 channels of first-order ambisonics (AmbiX W Y Z X)
 //!
 //! [listener]
 //! position = [0.0, 0.3, 0.6]   # m (y is up)
+//!
+//! [floor]                      # optional: a reflecting floor (an image source per body)
+//! height = 0.0                 # m
+//! reflection = 0.9             # pressure reflection coefficient
+//!
+//! [air]                        # absorption per mode (ISO 9613-1); these are the defaults
+//! absorption = true
+//! temperature = 20.0           # °C
+//! humidity = 50.0              # %
+//! pressure = 101.325           # kPa
 //!
 //! [[body]]
 //! name = "table"
@@ -40,8 +51,9 @@
 //! retargeted to its contacts (`resound grains analyze`), `sound = false` silences it;
 //! `surface = "fractal"` (or a
 //! `.npy` height profile, with `surface_spacing` and `roughness` in m) makes sliding on it
-//! scrape by Traer's model. Errors name the line and the
-//! field.
+//! scrape by Traer's model. `contact_damping = 0.02` is the loss factor a body takes on
+//! (and gives) while it rests, slides or rolls on another with its weight (0: none). Errors
+//! name the line and the field.
 
 use serde::Deserialize;
 use std::path::Path;
@@ -62,6 +74,9 @@ pub struct SceneFile {
     /// Stereo output.
     #[serde(default = "default_true")]
     pub stereo: bool,
+    /// First-order ambisonics (4 channels, AmbiX: W Y Z X, SN3D) instead of stereo.
+    #[serde(default)]
+    pub ambisonics: bool,
     /// Physics steps per second.
     #[serde(default = "default_steps")]
     pub steps_per_second: f64,
@@ -71,8 +86,69 @@ pub struct SceneFile {
     /// The listener.
     #[serde(default)]
     pub listener: Listener,
+    /// The air (absorption per mode, ISO 9613-1).
+    #[serde(default)]
+    pub air: AirFile,
+    /// A reflecting floor (an image source per body).
+    #[serde(default)]
+    pub floor: Option<FloorFile>,
     /// The bodies.
     pub body: Vec<toml::Spanned<BodyFile>>,
+}
+
+/// The air between the bodies and the listener.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct AirFile {
+    /// Absorb sound in the air (ISO 9613-1); `false`: distance and delay only.
+    #[serde(default = "default_true")]
+    pub absorption: bool,
+    /// Temperature, °C.
+    #[serde(default = "default_temperature")]
+    pub temperature: f64,
+    /// Relative humidity, %.
+    #[serde(default = "default_humidity")]
+    pub humidity: f64,
+    /// Atmospheric pressure, kPa.
+    #[serde(default = "default_pressure")]
+    pub pressure: f64,
+}
+
+impl Default for AirFile {
+    fn default() -> Self {
+        Self {
+            absorption: true,
+            temperature: default_temperature(),
+            humidity: default_humidity(),
+            pressure: default_pressure(),
+        }
+    }
+}
+
+fn default_temperature() -> f64 {
+    20.0
+}
+fn default_humidity() -> f64 {
+    50.0
+}
+fn default_pressure() -> f64 {
+    101.325
+}
+
+/// A floor that reflects sound.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FloorFile {
+    /// Height of the floor plane, m.
+    #[serde(default)]
+    pub height: f64,
+    /// Pressure reflection coefficient, 0–1.
+    #[serde(default = "default_reflection")]
+    pub reflection: f64,
+}
+
+fn default_reflection() -> f64 {
+    0.9
 }
 
 /// Where the listener is.
@@ -229,6 +305,10 @@ pub struct BodyFile {
     /// RMS height of a fractal texture, m.
     #[serde(default = "default_roughness")]
     pub roughness: f64,
+    /// Contact damping: the loss factor this body takes on (and gives) across a contact that
+    /// carries its weight (default 0.02; 0: none).
+    #[serde(default)]
+    pub contact_damping: Option<f64>,
 }
 
 fn default_spacing() -> f64 {
@@ -333,6 +413,33 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
         field,
         message,
     };
+    if let Some(f) = &scene.floor {
+        if !(f.height.is_finite() && (0.0..=1.0).contains(&f.reflection)) {
+            return Err(invalid(
+                line_of_key("reflection").max(line_of_key("height")),
+                "floor".into(),
+                format!(
+                    "height must be finite and reflection in [0, 1], got {} m, {}",
+                    f.height, f.reflection
+                ),
+            ));
+        }
+    }
+    let a = &scene.air;
+    if !((-40.0..=60.0).contains(&a.temperature)
+        && (0.0..=100.0).contains(&a.humidity)
+        && (50.0..=110.0).contains(&a.pressure))
+    {
+        return Err(invalid(
+            line_of_key("temperature").max(line_of_key("humidity")),
+            "air".into(),
+            format!(
+                "temperature must be within −40…60 °C, humidity 0–100 % and pressure \
+                 50–110 kPa, got {} °C, {} %, {} kPa",
+                a.temperature, a.humidity, a.pressure
+            ),
+        ));
+    }
     if !(scene.duration > 0.0 && scene.duration <= 3600.0) {
         return Err(invalid(
             line_of_key("duration"),
@@ -465,6 +572,15 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
                     b.surface_spacing, b.roughness
                 ),
             ));
+        }
+        if let Some(eta) = b.contact_damping {
+            if !(0.0..=0.5).contains(&eta) {
+                return Err(invalid(
+                    key_line("contact_damping"),
+                    field("contact_damping"),
+                    format!("must be a loss factor in [0, 0.5], got {eta}"),
+                ));
+            }
         }
         if b.material.trim().is_empty() {
             return Err(invalid(

@@ -165,6 +165,11 @@ pub fn live_scene(
     params: &SceneParams,
     live: &LiveParams,
 ) -> Result<(ScenePhysics, CueSender, Driver, usize), SceneError> {
+    if params.ambisonics {
+        return Err(SceneError::Setting(
+            "ambisonics are rendered offline; a live scene plays stereo or mono".into(),
+        ));
+    }
     if live.block == 0 || live.block > 1 << 16 {
         return Err(SceneError::Setting(format!(
             "device blocks must be 1–65536 samples, got {}",

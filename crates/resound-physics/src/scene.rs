@@ -86,7 +86,7 @@ pub struct SceneStats {
 /// Audio and events of a scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneOutput {
-    /// One or two channels.
+    /// One or two channels (four: ambisonics).
     pub channels: Vec<Vec<f32>>,
     /// The event log.
     pub events: Vec<Event>,
@@ -387,6 +387,9 @@ struct StepContacts {
     continuous: Vec<Option<(Contact, f64, f64)>>,
     /// Impacts for grain players: (body, samples into the step, impulse N·s).
     grain_impacts: Vec<(usize, usize, f64)>,
+    /// Per body: the contact loss factor of the step's persisting contacts (see
+    /// [`contact_loss`]).
+    loss: Vec<f64>,
     /// Running figures.
     stats: SceneStats,
 }
@@ -430,6 +433,31 @@ impl StepContacts {
     }
 }
 
+/// Most contact loss factor a body takes on, however many contacts it has.
+pub const MAX_CONTACT_LOSS: f64 = 0.2;
+
+/// The loss factor body `a` takes on from a persisting contact with `b` carrying
+/// `normal_force` (N), `a` weighing `weight` (N): the pair's loss factor (the mean of the two
+/// bodies', [`crate::DEFAULT_CONTACT_LOSS`] for a silent one) times the share of `a`'s weight
+/// the contact carries (at most 1). An immovable body (infinite weight) takes on none; in
+/// zero gravity any pressing contact counts fully.
+fn contact_loss(a: &BodySpec, b: &BodySpec, normal_force: f64, weight: f64) -> f64 {
+    let own = |x: &BodySpec| {
+        x.sound
+            .as_ref()
+            .map_or(crate::DEFAULT_CONTACT_LOSS, |s| s.contact_loss)
+    };
+    if !(normal_force > 0.0) || weight.is_infinite() {
+        return 0.0;
+    }
+    let share = if weight > 0.0 {
+        (normal_force / weight).min(1.0)
+    } else {
+        1.0
+    };
+    0.5 * (own(a) + own(b)) * share
+}
+
 /// Classifies rapier's contact pairs after each step — impacts (timed within the step, shaped
 /// by Hertz, carrying the solver impulse), sliding, rolling, resting — and turns them into
 /// [`Excitation`]s with the force models of `resound_synth::contact`.
@@ -458,6 +486,7 @@ impl ContactTracker {
     ) {
         let (dt, fs) = (self.dt, self.fs);
         out.continuous.iter_mut().for_each(|c| *c = None);
+        out.loss.iter_mut().for_each(|l| *l = 0.0);
         // Last step's map, emptied: its capacity is reused.
         let mut now_active = std::mem::take(&mut self.spare);
         now_active.clear();
@@ -575,6 +604,15 @@ impl ContactTracker {
             } else {
                 // Persistent contact: sliding, rolling or resting.
                 let normal_force = impulse / dt;
+                let g = f64::from(world.gravity.length());
+                for (i, j) in [(i1, i2), (i2, i1)] {
+                    let weight = if bodies[i].fixed {
+                        f64::INFINITY
+                    } else {
+                        f64::from(world.bodies[handles[i]].mass()) * g
+                    };
+                    out.loss[i] += contact_loss(&bodies[i], &bodies[j], normal_force, weight);
+                }
                 let v_rel = vel_at(i1, true) - vel_at(i2, true);
                 let v_t = v_rel - normal * v_rel.dot(normal);
                 let slip = f64::from(v_t.length());
@@ -723,6 +761,8 @@ pub struct ScenePhysics {
     offset: u64,
     /// Wall time of the most recent step (physics and contact handling), s.
     last_step_s: f64,
+    /// The contact loss factor last sent for each body.
+    sent_loss: Vec<f64>,
 }
 
 /// The audio side's sources and settings for a scene's bodies (see [`ScenePhysics::new`]).
@@ -862,6 +902,9 @@ impl ScenePhysics {
             cue_capacity,
             sample_capacity: (16 * n_bodies * (step_samples + FORCE_PULSE_SAMPLES)).max(1 << 18),
             governor: None,
+            air: params.air,
+            reflection: params.reflection,
+            ambisonics: params.ambisonics,
         };
         Ok((
             Self {
@@ -875,6 +918,7 @@ impl ScenePhysics {
                     events: Vec::new(),
                     continuous: vec![None; n_bodies],
                     grain_impacts: Vec::new(),
+                    loss: vec![0.0; n_bodies],
                     stats: SceneStats::default(),
                 },
                 grids,
@@ -887,6 +931,7 @@ impl ScenePhysics {
                 steps,
                 offset: 0,
                 last_step_s: 0.0,
+                sent_loss: vec![0.0; n_bodies],
             },
             SceneSources {
                 sources,
@@ -995,6 +1040,30 @@ impl ScenePhysics {
                 tx.force(body, k, &e.force, e.scale, e.delay);
             }
         }
+        // Contact damping: sent when it starts, ends, or changes by a tenth (rapier's resting
+        // forces jitter from step to step; each change recomputes the body's poles).
+        // An immovable body (a table, a floor) is held by its mounting as if it rested on it
+        // with its whole weight: it keeps its own loss factor.
+        for (i, (&eta, sent)) in self.out.loss.iter().zip(&mut self.sent_loss).enumerate() {
+            let Some(sound) = self.bodies[i].sound.as_ref() else {
+                continue;
+            };
+            let eta = if self.bodies[i].fixed {
+                sound.contact_loss
+            } else {
+                eta
+            }
+            .min(MAX_CONTACT_LOSS);
+            if (eta > 0.0) == (*sent > 0.0) && (eta - *sent).abs() <= 0.1 * *sent {
+                continue;
+            }
+            if tx.send(Cue::Damping {
+                source: i as u32,
+                loss_factor: eta as f32,
+            }) {
+                *sent = eta;
+            }
+        }
         for &i in &self.grain_bodies {
             tx.send(Cue::GrainContact {
                 source: i as u32,
@@ -1066,6 +1135,12 @@ pub fn simulate(
         match channels {
             [a] => audio.process(&mut [&mut a[s0..s1]]),
             [a, b] => audio.process(&mut [&mut a[s0..s1], &mut b[s0..s1]]),
+            [a, b, c, d] => audio.process(&mut [
+                &mut a[s0..s1],
+                &mut b[s0..s1],
+                &mut c[s0..s1],
+                &mut d[s0..s1],
+            ]),
             _ => {}
         }
         ta.elapsed().as_secs_f64()

@@ -29,6 +29,7 @@ fn sound(radius: f64) -> BodySound {
             youngs_modulus: 70e9,
             poisson_ratio: 0.25,
         },
+        contact_loss: resound_physics::DEFAULT_CONTACT_LOSS,
     }
 }
 
@@ -377,4 +378,139 @@ fn grains_are_silent_without_contacts_and_grow_with_contact_power() {
     let (slow, fast) = (slide(1.0), slide(3.0));
     eprintln!("grain sliding rms {slow:.3e} at 1 m/s, {fast:.3e} at 3 m/s");
     assert!(slow > 0.0 && fast > 2.0 * slow, "{slow} → {fast}");
+}
+
+/// A plate that sounds one mode (1 kHz, 2 1/s of its own), its gains the same everywhere.
+fn one_mode_plate(position: [f64; 3]) -> BodySpec {
+    let mut s = sound(0.1);
+    s.modes = vec![(1000.0, 2.0)];
+    s.gains = vec![0.02f32; s.vertices.len()];
+    BodySpec {
+        name: "plate".into(),
+        shape: Shape::Cuboid([0.1, 0.005, 0.1]),
+        fixed: false,
+        density: 2700.0,
+        position,
+        restitution: 0.0,
+        sound: Some(s),
+        ..floor()
+    }
+}
+
+/// The decay rate (1/s) of the envelope of `x` between `t0` and `t1` s: the slope of
+/// ln RMS over 10 ms windows, least squares.
+fn decay_rate(x: &[f32], fs: f64, t0: f64, t1: f64) -> f64 {
+    let w = (0.01 * fs) as usize;
+    let (mut pts, mut k) = (Vec::new(), (t0 * fs) as usize);
+    while k + w <= (t1 * fs) as usize {
+        pts.push(((k + w / 2) as f64 / fs, rms(&x[k..k + w]).ln()));
+        k += w;
+    }
+    let n = pts.len() as f64;
+    let (mt, my) = (
+        pts.iter().map(|p| p.0).sum::<f64>() / n,
+        pts.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mt) * (p.1 - my)).sum();
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mt).powi(2)).sum();
+    -sxy / sxx
+}
+
+#[test]
+fn a_plate_at_rest_on_a_table_falls_quiet_by_contact_damping_and_a_free_one_rings_on() {
+    let fs = 48_000.0;
+    // At rest: dropped flat from 5 mm onto a silent floor, it lies there after the impact.
+    let silent_floor = BodySpec {
+        sound: None,
+        restitution: 0.0,
+        ..floor()
+    };
+    let resting = one_mode_plate([0.0, 0.01, 0.0]);
+    let out = simulate(&[silent_floor, resting], &params(0.6), &|_| {}).unwrap();
+    let t_hit = out
+        .events
+        .iter()
+        .find(|e| e.kind == ContactKind::Impact)
+        .expect("the plate lands")
+        .time_s;
+    let d_rest = decay_rate(&out.channels[0], fs, t_hit + 0.03, t_hit + 0.12);
+    // The model: own rate + π f η, η the mean of the plate's and the (silent) floor's loss
+    // factors, the contact carrying the plate's whole weight.
+    let want = 2.0 + std::f64::consts::PI * 1000.0 * resound_physics::DEFAULT_CONTACT_LOSS;
+    // Hanging free: no gravity, struck sideways by a silent ball that bounces off.
+    let free = one_mode_plate([0.0, 0.2, 0.0]);
+    let ball = BodySpec {
+        name: "ball".into(),
+        shape: Shape::Ball(0.01),
+        density: 7800.0,
+        position: [-0.2, 0.2, 0.0],
+        linvel: [2.0, 0.0, 0.0],
+        restitution: 0.8,
+        sound: None,
+        ..floor()
+    };
+    let ball = BodySpec {
+        fixed: false,
+        ..ball
+    };
+    let zero_g = SceneParams {
+        gravity: [0.0; 3],
+        ..params(1.5)
+    };
+    let out_free = simulate(&[free, ball], &zero_g, &|_| {}).unwrap();
+    let t_free = out_free
+        .events
+        .iter()
+        .find(|e| e.kind == ContactKind::Impact)
+        .expect("the ball strikes the plate")
+        .time_s;
+    let d_free = decay_rate(&out_free.channels[0], fs, t_free + 0.05, t_free + 1.0);
+    eprintln!(
+        "decay at rest {d_rest:.1} 1/s (model {want:.1}), hanging free {d_free:.2} 1/s (own 2)"
+    );
+    assert!(
+        (d_rest / want - 1.0).abs() < 0.15,
+        "at rest {d_rest} vs {want}"
+    );
+    assert!((d_free - 2.0).abs() < 0.5, "free {d_free} vs its own 2 1/s");
+}
+
+#[test]
+fn air_absorbs_each_mode_by_iso_9613_over_the_distance_to_the_listener() {
+    // A silent ball strikes the sounding floor; the listener 20 m away.
+    let ball = BodySpec {
+        name: "ball".into(),
+        shape: Shape::Ball(0.01),
+        fixed: false,
+        density: 7800.0,
+        position: [0.0, 0.1, 0.0],
+        sound: None,
+        ..floor()
+    };
+    let far = |air| SceneParams {
+        listener: [0.0, 0.0, 20.0],
+        stereo: false,
+        air,
+        ..params(0.6)
+    };
+    let air = resound_synth::air::Air::default();
+    let with = simulate(&[floor(), ball.clone()], &far(Some(air)), &|_| {}).unwrap();
+    let without = simulate(&[floor(), ball], &far(None), &|_| {}).unwrap();
+    let fs = 48_000.0;
+    // Each mode's amplitude: the correlation with its own frequency over the ringing.
+    let amp = |x: &[f32], f: f64| {
+        let (re, im) = x.iter().enumerate().fold((0.0, 0.0), |(a, b), (n, &v)| {
+            let w = std::f64::consts::TAU * f * n as f64 / fs;
+            (a + f64::from(v) * w.cos(), b + f64::from(v) * w.sin())
+        });
+        (re * re + im * im).sqrt()
+    };
+    for f in [900.0, 2300.0, 5100.0] {
+        let got_db = 20.0 * (amp(&with.channels[0], f) / amp(&without.channels[0], f)).log10();
+        let want_db = -air.attenuation_db_per_m(f) * 20.0;
+        assert!(
+            (got_db - want_db).abs() < 0.02,
+            "{f} Hz: {got_db:.3} dB vs ISO 9613-1 {want_db:.3} dB over 20 m"
+        );
+    }
 }

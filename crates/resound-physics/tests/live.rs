@@ -43,6 +43,7 @@ fn sound(radius: f64, f0: f64) -> BodySound {
             youngs_modulus: 70e9,
             poisson_ratio: 0.25,
         },
+        contact_loss: resound_physics::DEFAULT_CONTACT_LOSS,
     }
 }
 

@@ -69,6 +69,30 @@ pub struct ModalBank {
     acc: Vec<[f32; LANES]>,
     cull_level: f32,
     scalar_only: bool,
+    /// Frequency (Hz) and own decay rate (1/s) of each lane, in lane order.
+    lanes: Vec<(f64, f64)>,
+    /// Added loss factor η (contact damping): each mode decays `π f η` 1/s faster.
+    extra_loss: f64,
+}
+
+/// The f32 pole `p = e^((−d + jω)T)` and the f32 drift correction `(p / p32)^period` of a mode.
+fn pole(freq_hz: f64, damping_per_s: f64, t: f64) -> (f32, f32, f32, f32) {
+    let r = (-damping_per_s * t).exp();
+    let (s, co) = (std::f64::consts::TAU * freq_hz * t).sin_cos();
+    let (pr, pi) = (r * co, r * s);
+    let (pr32, pi32) = (pr as f32, pi as f32);
+    // (p / p32)^period in f64: the drift the f32 pole accumulates, undone.
+    let (qr, qi) = (f64::from(pr32), f64::from(pi32));
+    let q2 = qr * qr + qi * qi;
+    let (rr, ri) = ((pr * qr + pi * qi) / q2, (pi * qr - pr * qi) / q2);
+    let mag = (rr * rr + ri * ri).sqrt().powi(CORRECTION_PERIOD as i32);
+    let ang = ri.atan2(rr) * CORRECTION_PERIOD as f64;
+    (
+        pr32,
+        pi32,
+        (mag * ang.cos()) as f32,
+        (mag * ang.sin()) as f32,
+    )
 }
 
 impl ModalBank {
@@ -97,6 +121,8 @@ impl ModalBank {
             acc: vec![[0.0; LANES]; BLOCK],
             cull_level,
             scalar_only: false,
+            lanes: Vec::with_capacity(chunks * LANES),
+            extra_loss: 0.0,
         })
     }
 
@@ -153,30 +179,22 @@ impl ModalBank {
             }
         }
         self.chunks.clear();
+        self.lanes.clear();
         let t = 1.0 / self.sample_rate_hz;
+        let eta = self.extra_loss;
         for c in 0..n.div_ceil(LANES) {
             let mut chunk = Chunk::default();
             for l in 0..LANES {
                 let Some(&i) = self.order.get(c * LANES + l) else {
                     chunk.cr[l] = 1.0;
+                    self.lanes.push((0.0, 0.0));
                     continue;
                 };
                 let m = &modes[i];
-                let r = (-m.damping_per_s * t).exp();
-                let (s, co) = (std::f64::consts::TAU * m.freq_hz * t).sin_cos();
-                let (pr, pi) = (r * co, r * s);
-                let (pr32, pi32) = (pr as f32, pi as f32);
-                chunk.pr[l] = pr32;
-                chunk.pi[l] = pi32;
+                self.lanes.push((m.freq_hz, m.damping_per_s));
+                let d = m.damping_per_s + std::f64::consts::PI * m.freq_hz * eta;
+                (chunk.pr[l], chunk.pi[l], chunk.cr[l], chunk.ci[l]) = pole(m.freq_hz, d, t);
                 chunk.b[l] = (t * m.gain) as f32;
-                // (p / p32)^period in f64: the drift the f32 pole accumulates, undone.
-                let (qr, qi) = (f64::from(pr32), f64::from(pi32));
-                let q2 = qr * qr + qi * qi;
-                let (rr, ri) = ((pr * qr + pi * qi) / q2, (pi * qr - pr * qi) / q2);
-                let mag = (rr * rr + ri * ri).sqrt().powi(CORRECTION_PERIOD as i32);
-                let ang = ri.atan2(rr) * CORRECTION_PERIOD as f64;
-                chunk.cr[l] = (mag * ang.cos()) as f32;
-                chunk.ci[l] = (mag * ang.sin()) as f32;
             }
             self.chunks.push(chunk);
         }
@@ -196,6 +214,38 @@ impl ModalBank {
                 }
             }
         }
+    }
+
+    /// Adds contact damping: every mode decays `π f η` 1/s faster than its own rate (a loss
+    /// factor η, from 0: none). The state is kept, so the sound goes on without a step, only
+    /// fading faster. Allocation-free; a few transcendental functions per mode, so callers
+    /// change it when the contact changes, not every sample.
+    pub fn set_extra_loss(&mut self, eta: f64) {
+        let eta = if eta.is_finite() {
+            eta.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        if eta == self.extra_loss {
+            return;
+        }
+        self.extra_loss = eta;
+        let t = 1.0 / self.sample_rate_hz;
+        for (c, chunk) in self.chunks.iter_mut().enumerate() {
+            for l in 0..LANES {
+                if self.order.get(c * LANES + l).is_none() {
+                    continue;
+                }
+                let (f, d0) = self.lanes[c * LANES + l];
+                let d = d0 + std::f64::consts::PI * f * eta;
+                (chunk.pr[l], chunk.pi[l], chunk.cr[l], chunk.ci[l]) = pole(f, d, t);
+            }
+        }
+    }
+
+    /// The added loss factor (see [`Self::set_extra_loss`]).
+    pub fn extra_loss(&self) -> f64 {
+        self.extra_loss
     }
 
     /// Modes in the bank.

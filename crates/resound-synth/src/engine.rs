@@ -323,6 +323,16 @@ impl Engine {
         true
     }
 
+    /// Sets a voice's contact damping, an added loss factor η (see
+    /// [`crate::bank::ModalBank::set_extra_loss`]). Never allocates.
+    pub fn set_extra_loss(&mut self, id: VoiceId, eta: f64) -> bool {
+        if !self.is_alive(id) {
+            return false;
+        }
+        self.voices[id.slot].bank.set_extra_loss(eta);
+        true
+    }
+
     /// Changes a voice's per-mode gains (a moving contact).
     pub fn set_gains(&mut self, id: VoiceId, gains: &[f64]) -> bool {
         if !self.is_alive(id) {

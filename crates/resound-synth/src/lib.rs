@@ -17,6 +17,7 @@
 //! - [`live`]: a single-object live frontend/backend and the simulated audio clock.
 #![warn(missing_docs)]
 
+pub mod air;
 pub mod bank;
 pub mod contact;
 pub mod engine;

@@ -19,9 +19,10 @@
 //!   dropped by audibility), then halves the voices it renders (the quietest fade out over a
 //!   block: voice stealing by loudness); well below it, it steps back.
 
+use crate::air::Air;
 use crate::bank::BankMode;
 use crate::engine::{Engine, EngineParams, VoiceId};
-use crate::spatial::Spatializer;
+use crate::spatial::{FloorReflection, Spatializer};
 use crate::SynthError;
 use resound_grains::player::GrainPlayer;
 use resound_grains::Contact;
@@ -65,6 +66,13 @@ pub struct SceneAudioParams {
     pub sample_capacity: usize,
     /// Overload handling (live); `None` renders everything, whatever it costs (offline).
     pub governor: Option<Governor>,
+    /// Air absorption (ISO 9613-1) of each mode over its distance to the listener, applied
+    /// as it is excited; `None`: none.
+    pub air: Option<Air>,
+    /// A floor reflection (an image source per body); `None`: free field.
+    pub reflection: Option<FloorReflection>,
+    /// Four channels of first-order ambisonics (AmbiX) instead of `stereo`'s one or two.
+    pub ambisonics: bool,
 }
 
 /// When the live callback degrades (shares of its block's deadline).
@@ -138,6 +146,14 @@ pub enum Cue {
     Listener {
         /// Position, m.
         position: [f32; 3],
+    },
+    /// A body's contact damping from now on: the added loss factor η of its modes (each
+    /// decays `π f η` 1/s faster; 0: free, its material's damping only).
+    Damping {
+        /// Source index.
+        source: u32,
+        /// Loss factor η.
+        loss_factor: f32,
     },
     /// A source takes new modes: `modes` triples (frequency Hz, decay rate 1/s, gain per N·s
     /// at one point) in the sample queue; at most the modes the source was built with (its
@@ -291,6 +307,9 @@ pub struct SceneAudio {
     engine: Engine,
     voices: Vec<Option<VoiceId>>,
     tables: Vec<Vec<f32>>,
+    /// Per source, each mode's air absorption, nepers per metre (capacity: a voice's modes).
+    air_np: Vec<Vec<f32>>,
+    air: Option<Air>,
     modes: Vec<usize>,
     gains: Vec<f64>,
     players: Vec<Option<GrainPlayer>>,
@@ -343,7 +362,20 @@ pub fn scene_audio(
     })?;
     let mut voices = Vec::with_capacity(sources.len());
     let mut tables = Vec::with_capacity(sources.len());
+    let mut air_np = Vec::with_capacity(sources.len());
     let mut modes = Vec::with_capacity(sources.len());
+    if params.air.is_some_and(|a| !a.is_valid()) {
+        return Err(SynthError::Parameter(format!(
+            "air: temperature −40…60 °C, humidity 0–100 %, pressure 50–110 kPa; got {:?}",
+            params.air
+        )));
+    }
+    let modes_cap = sources
+        .iter()
+        .map(|s| s.modes.len())
+        .max()
+        .unwrap_or(0)
+        .max(1);
     let mut players = Vec::with_capacity(sources.len());
     let mut positions = Vec::with_capacity(sources.len());
     for (i, s) in sources.into_iter().enumerate() {
@@ -369,18 +401,34 @@ pub fn scene_audio(
         } else {
             None
         });
+        let mut np = Vec::with_capacity(modes_cap);
+        np.extend(
+            s.modes
+                .iter()
+                .map(|&(f, _)| air_nepers_per_m(params.air, f)),
+        );
+        air_np.push(np);
         modes.push(m);
         tables.push(s.gains);
         players.push(s.grains);
         positions.push(s.position);
     }
-    let spatializer = Spatializer::new(
+    let mut spatializer = Spatializer::new(
         params.sample_rate_hz,
         params.stereo,
         params.listener,
         params.max_delay_s,
         params.max_block,
     )?;
+    if params.ambisonics {
+        spatializer = spatializer.into_ambisonics();
+    }
+    if !spatializer.set_reflection(params.reflection) {
+        return Err(SynthError::Parameter(format!(
+            "floor reflection: a finite height and a coefficient in [0, 1], got {:?}",
+            params.reflection
+        )));
+    }
     let (ctx, crx) = rtrb::RingBuffer::new(params.cue_capacity);
     let (stx, srx) = rtrb::RingBuffer::new(params.sample_capacity.max(1));
     let stats = Arc::new(AudioStats::default());
@@ -396,6 +444,8 @@ pub fn scene_audio(
             engine,
             voices,
             tables,
+            air_np,
+            air: params.air,
             modes,
             gains,
             players,
@@ -527,6 +577,16 @@ impl SceneAudio {
                         for (g, &t) in self.gains[..m].iter_mut().zip(&table[k * m..(k + 1) * m]) {
                             *g = f64::from(t);
                         }
+                        if self.air.is_some() {
+                            let (p, l) = (self.positions[i], self.spatializer.listener());
+                            let r = ((p[0] - l[0]).powi(2)
+                                + (p[1] - l[1]).powi(2)
+                                + (p[2] - l[2]).powi(2))
+                            .sqrt();
+                            for (g, &a) in self.gains[..m].iter_mut().zip(&self.air_np[i]) {
+                                *g *= (-f64::from(a) * r).exp();
+                            }
+                        }
                         self.engine.set_gains(id, &self.gains[..m]);
                         let (a, b) = chunk.as_slices();
                         let d = (delay as usize).saturating_sub(late);
@@ -542,6 +602,15 @@ impl SceneAudio {
                 ok
             }
             Cue::Listener { position } => self.spatializer.set_listener(position.map(f64::from)),
+            Cue::Damping {
+                source,
+                loss_factor,
+            } => match self.voices.get(source as usize).copied().flatten() {
+                Some(id) if loss_factor.is_finite() && loss_factor >= 0.0 => {
+                    self.engine.set_extra_loss(id, f64::from(loss_factor))
+                }
+                _ => false,
+            },
             Cue::Sound { source, modes } => {
                 let m = modes as usize;
                 let Ok(chunk) = self.samples.read_chunk(3 * m) else {
@@ -557,9 +626,13 @@ impl SceneAudio {
                         let mut values = a.iter().chain(b).copied();
                         self.bank.clear();
                         self.tables[i].clear();
+                        self.air_np[i].clear();
                         while let (Some(f), Some(d), Some(g)) =
                             (values.next(), values.next(), values.next())
                         {
+                            if self.air_np[i].len() < self.air_np[i].capacity() {
+                                self.air_np[i].push(air_nepers_per_m(self.air, f64::from(f)));
+                            }
                             self.bank.push(BankMode {
                                 freq_hz: f64::from(f),
                                 damping_per_s: f64::from(d),
@@ -618,6 +691,12 @@ impl SceneAudio {
         }
         match out {
             [a] => spatializer.render(&mut [&mut a[at..at + len]]),
+            [a, b, c, d, ..] => spatializer.render(&mut [
+                &mut a[at..at + len],
+                &mut b[at..at + len],
+                &mut c[at..at + len],
+                &mut d[at..at + len],
+            ]),
             [a, b, ..] => spatializer.render(&mut [&mut a[at..at + len], &mut b[at..at + len]]),
             [] => {}
         }
@@ -661,4 +740,11 @@ impl SceneAudio {
             .steals
             .store(self.engine.steals(), Ordering::Relaxed);
     }
+}
+
+/// A mode's air absorption at `freq_hz`, nepers (of amplitude) per metre; 0 without air.
+fn air_nepers_per_m(air: Option<Air>, freq_hz: f64) -> f32 {
+    air.map_or(0.0, |a| {
+        (a.attenuation_db_per_m(freq_hz) * std::f64::consts::LN_10 / 20.0) as f32
+    })
 }

@@ -285,3 +285,43 @@ fn the_spatializer_places_and_renders_without_allocating() {
     );
     assert!(heard > 0.0);
 }
+
+#[test]
+fn contact_damping_speeds_the_decay_by_pi_f_eta_without_a_step_and_undoes_exactly() {
+    let fs = 48_000.0;
+    let modes = [BankMode {
+        freq_hz: 1000.0,
+        damping_per_s: 3.0,
+        gain: 1.0,
+    }];
+    let mut bank = ModalBank::new(fs, &modes, 0.0).unwrap();
+    let mut force = vec![0.0f32; 4800];
+    force[0] = 1.0;
+    let mut a = vec![0.0f32; 4800];
+    bank.process(&force, &mut a);
+    // From 0.1 s on, η = 0.01: 3 + π·1000·0.01 = 34.4 1/s.
+    bank.set_extra_loss(0.01);
+    let mut b = vec![0.0f32; 9600];
+    bank.ring(&mut b);
+    let peak = |x: &[f32]| x.iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64;
+    let rate = (peak(&b[..960]) / peak(&b[4800..5760])).ln() / 0.1;
+    let want = 3.0 + std::f64::consts::PI * 1000.0 * 0.01;
+    assert!((rate / want - 1.0).abs() < 0.02, "decay {rate} vs {want}");
+    // No step at the switch: the first damped sample continues the sinusoid.
+    let step = (b[0] - a[4799]).abs();
+    let usual = a[4700..]
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0, f32::max);
+    assert!(step <= 1.01 * usual, "step {step} vs {usual}");
+    // Back to 0: the very poles the bank was built with (same output, bit for bit).
+    let mut fresh = ModalBank::new(fs, &modes, 0.0).unwrap();
+    let mut c = ModalBank::new(fs, &modes, 0.0).unwrap();
+    c.set_extra_loss(0.05);
+    c.set_extra_loss(0.0);
+    let (mut x, mut y) = (vec![0.0f32; 2048], vec![0.0f32; 2048]);
+    fresh.process(&force[..2048], &mut x);
+    c.process(&force[..2048], &mut y);
+    assert!(x == y, "the undone poles differ");
+    assert_eq!(c.extra_loss(), 0.0);
+}

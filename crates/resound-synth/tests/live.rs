@@ -179,6 +179,9 @@ fn spare_scene(
         cue_capacity: 64,
         sample_capacity: 4096,
         governor: None,
+        air: None,
+        reflection: None,
+        ambisonics: false,
     };
     let spare = Source {
         modes: vec![(1000.0, 1000.0); capacity],

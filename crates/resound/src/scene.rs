@@ -187,6 +187,7 @@ pub fn body_sound(
             youngs_modulus: material.gamma * model.material.density,
             poisson_ratio: poisson,
         },
+        contact_loss: resound_physics::DEFAULT_CONTACT_LOSS,
     }
 }
 
@@ -225,6 +226,7 @@ fn stats_sound(
             youngs_modulus: material.gamma * b.density,
             poisson_ratio: b.poisson,
         },
+        contact_loss: resound_physics::DEFAULT_CONTACT_LOSS,
     })
 }
 
@@ -333,6 +335,10 @@ pub fn build_scene(
         } else {
             None
         };
+        let mut sound = sound;
+        if let (Some(s), Some(eta)) = (sound.as_mut(), b.contact_damping) {
+            s.contact_loss = eta;
+        }
         let deg = std::f64::consts::PI / 180.0;
         bodies.push(BodySpec {
             name: b.name.clone(),
@@ -358,6 +364,19 @@ pub fn build_scene(
         seed: scene.seed,
         steps_per_s: scene.steps_per_second,
         gravity: scene.gravity,
+        reflection: scene
+            .floor
+            .as_ref()
+            .map(|f| resound_synth::spatial::FloorReflection {
+                height_m: f.height,
+                coefficient: f.reflection,
+            }),
+        ambisonics: scene.ambisonics,
+        air: scene.air.absorption.then_some(resound_synth::air::Air {
+            temperature_c: scene.air.temperature,
+            humidity_pct: scene.air.humidity,
+            pressure_kpa: scene.air.pressure,
+        }),
     };
     Ok((bodies, params))
 }
