@@ -782,7 +782,14 @@ fn grains_analyze(
     let rule = kind_rule(kind)?;
     let (recs, fs) = match arrays {
         None => {
-            let rate = sample_rate.map(|r| r.round() as u32);
+            // A rate beyond u32 saturates and is refused by the range check.
+            let rate = sample_rate.map(|r| {
+                if r.is_finite() && r > 0.0 {
+                    r.round() as u32
+                } else {
+                    0
+                }
+            });
             let (r, fs, _) = py
                 .detach(|| load_recordings(&recordings, rule, rate))
                 .map_err(err)?;

@@ -487,6 +487,10 @@ def test_grains_from_a_real_file_match_the_cli(tmp_path):
     for k in ("grains", "impulsive", "sinusoidal", "transient", "grain_bytes", "file_bytes"):
         assert info[k] == theirs[k], k
     assert (tmp_path / "py.grains").read_bytes() == (tmp_path / "cli.grains").read_bytes()
+    # An absurd analysis rate is refused before any resampling (it once asked for terabytes).
+    for rate in (1e12, -5.0, float("nan")):
+        with pytest.raises(resound.ResoundError, match="8–384 kHz"):
+            resound.analyze_grains([ogg], tmp_path / "x.grains", sample_rate=rate)
 
 
 def write_wav16(path, x, fs):

@@ -65,6 +65,14 @@ pub fn load_recordings(
     rule: KindRule,
     rate: Option<u32>,
 ) -> Result<(Vec<Recording>, f64, usize)> {
+    if let Some(r) = rate {
+        // Checked before any resampling: a rate of gigahertz would ask for unbounded memory.
+        if !(8000..=384_000).contains(&r) {
+            return Err(invalid(format!(
+                "sample rate must be within 8–384 kHz, got {r} Hz"
+            )));
+        }
+    }
     let mut out = Vec::new();
     let mut fs: Option<u32> = rate;
     let mut bytes = 0usize;
