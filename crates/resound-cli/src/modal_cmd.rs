@@ -57,6 +57,16 @@ pub struct ModalArgs {
     /// Threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     pub threads: usize,
+    /// Also fit each mode's acoustic transfer (radiated pressure, near and far, as a multipole
+    /// expansion on a frequency grid ± 2 octaves around the mode) and store it in the model.
+    #[arg(long)]
+    pub transfer: bool,
+    /// Highest multipole order of the transfer (1–30; cost grows as its fourth power).
+    #[arg(long, default_value_t = 20, requires = "transfer")]
+    pub transfer_order: usize,
+    /// Most equivalent sources of the transfer fit (cost grows as their square).
+    #[arg(long, default_value_t = 800, requires = "transfer")]
+    pub transfer_sources: usize,
 }
 
 /// Arguments of `resound model`.
@@ -136,7 +146,36 @@ pub fn run(a: ModalArgs) -> Result<()> {
     let progress = |s| stage_message(&pb, s);
     let solved = resound::object::solve_mesh_file(&a.mesh, a.scale, &material, &p, &progress);
     pb.finish_and_clear();
-    let solved = solved?;
+    let mut solved = solved?;
+    let transfer = if a.transfer {
+        let pb = spinner("transfer");
+        pb.set_message(format!(
+            "fitting the acoustic transfer of {} modes",
+            solved.model.n_modes()
+        ));
+        let t0 = std::time::Instant::now();
+        let params = resound::modal::TransferParams {
+            max_order: a.transfer_order,
+            max_sources: a.transfer_sources,
+            ..Default::default()
+        };
+        let info = resound::radiation::add_transfer(&mut solved.model, &params);
+        pb.finish_and_clear();
+        let info = info?;
+        if info.poorly_fitted > 0 {
+            eprintln!(
+                "warning: {} modes' surface velocity is fitted with more than 50 % misfit \
+                 (worst {:.2}): their radiation is approximate (raise --transfer-sources, or refine the mesh)",
+                info.poorly_fitted, info.worst_residual
+            );
+        }
+        Some(resound::object::TransferRow {
+            info,
+            fit_s: t0.elapsed().as_secs_f64(),
+        })
+    } else {
+        None
+    };
     let (model, info) = (&solved.model, &solved.info);
     if let (Some(dir), Some(fem)) = (&a.export_matrices, &solved.fem) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
@@ -168,7 +207,21 @@ pub fn run(a: ModalArgs) -> Result<()> {
     }
     let hit = hit.map(|h| model.hit(h)).transpose()?;
     if a.json {
-        return print_json(&ModalReport::new(model, Some(info), hit.as_ref()));
+        let mut report = ModalReport::new(model, Some(info), hit.as_ref());
+        report.transfer = transfer;
+        return print_json(&report);
+    }
+    if let Some(t) = &transfer {
+        println!(
+            "acoustic transfer: {} grid frequencies, {} surface points, up to {} unknowns, \
+             worst misfit {:.3}, {:.1} MB, in {:.2} s",
+            t.info.grid_points,
+            t.info.surface_points,
+            t.info.max_unknowns,
+            t.info.worst_residual,
+            t.info.bytes as f64 / 1e6,
+            t.fit_s
+        );
     }
     let e = &info.eigen;
     println!(
@@ -218,6 +271,15 @@ pub fn run_info(a: ModelInfoArgs) -> Result<()> {
         "{}: {} modes, {} surface vertices, material {} (E {:.3e} Pa, nu {}, rho {} kg/m^3); loaded in {load_ms:.2} ms",
         a.model.display(), model.n_modes(), model.n_vertices(), m.name, m.youngs_modulus, m.poisson_ratio, m.density
     );
+    if let Some(t) = &model.transfer {
+        println!(
+            "acoustic transfer: order up to {}, {:.1} MB, centre {:?} m, radius {:.4} m",
+            t.max_order(),
+            t.coeff_bytes() as f64 / 1e6,
+            t.centre_m,
+            t.radius_m
+        );
+    }
     print_modes(&model, hit.as_ref());
     Ok(())
 }

@@ -112,6 +112,10 @@ pub struct SynthArgs {
     /// Material library path.
     #[arg(long)]
     pub library: Option<PathBuf>,
+    /// Microphone x,y,z in metres (model coordinates): weight each mode by what it radiates
+    /// there (the model's acoustic transfer: `resound modal --transfer`, or fitted now).
+    #[arg(long, allow_hyphen_values = true, conflicts_with_all = ["modes", "stats"])]
+    pub mic: Option<String>,
     /// Output WAV file.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -190,6 +194,7 @@ pub fn run(a: SynthArgs) -> Result<()> {
         residual: !a.no_residual,
         duration_s: a.duration,
         sample_rate_hz: a.sample_rate,
+        mic_m: a.mic.as_deref().map(parse_vec3).transpose()?,
     };
     let (mut strike, name) = match (&a.modes, &a.stats) {
         (Some(p), _) => {
@@ -225,7 +230,8 @@ pub fn run(a: SynthArgs) -> Result<()> {
         }
     };
     let level = normalize(&mut strike.samples, CEILING)?;
-    let warnings: Vec<String> = level.quiet_warning().into_iter().collect();
+    let mut warnings = strike.info.warnings.clone();
+    warnings.extend(level.quiet_warning());
     crate::util::warn_all(&warnings);
     if level.gain_db < 0.0 {
         eprintln!(

@@ -19,12 +19,14 @@ pub mod damped;
 pub mod geometry;
 pub mod material;
 pub mod modal_model;
+pub mod radiation;
 pub mod rayleigh;
 pub mod units;
 
 pub use damped::DampedMode;
 pub use material::{Material, MaterialError};
 pub use modal_model::{Hit, ModalModel, ModalModelError};
+pub use radiation::AcousticTransfer;
 pub use rayleigh::{
     Damping, DampingModel, ModeDamping, Provenance, Residual, SoundMaterial, DEFAULT_SIGMA,
 };

@@ -57,6 +57,9 @@ pub struct ModalModel {
     pub fem_dofs: u64,
     /// Number of finite elements.
     pub fem_elements: u64,
+    /// Each mode's acoustic transfer (radiated pressure per modal velocity), when computed
+    /// (`resound_modal::radiation`).
+    pub transfer: Option<crate::radiation::AcousticTransfer>,
 }
 
 /// A hit snapped to a model's surface ([`ModalModel::hit`]).
@@ -155,6 +158,7 @@ impl ModalModel {
             material: material.clone(),
             eigenvalues: self.eigenvalues.iter().map(|l| l * s_lambda).collect(),
             shapes: self.shapes.iter().map(|s| s * s_shape).collect(),
+            transfer: self.transfer.as_ref().map(|t| t.scaled(s_shape)),
             ..self.clone()
         })
     }
@@ -282,6 +286,7 @@ mod tests {
             shapes: (0..18).map(|i| i as f32 * 0.1).collect(),
             fem_dofs: 9,
             fem_elements: 1,
+            transfer: None,
         }
     }
 

@@ -1,6 +1,7 @@
 //! The `.rmodal` modal model file.
 //!
-//! Little-endian binary, version 1:
+//! Little-endian binary, version 2 (version 1, the same without the transfer section, is
+//! still read):
 //!
 //! | bytes | content |
 //! |---|---|
@@ -14,6 +15,9 @@
 //! | 24v | vertex positions (f64, m) |
 //! | 12t | triangles (u32) |
 //! | 12mv | mass-normalised shapes (f32, 1/√kg), mode-major |
+//! | 4 | 1 when an acoustic transfer follows, else 0 (u32) |
+//! | 48 + 4 | transfer: centre (3 × f64, m), radius (m), sound speed (m/s), air density (kg/m³), grid start (Hz) as f64 — 7 × f64 = 56 bytes —, points per octave (u32) |
+//! | per mode | first grid point, points n (u32), n orders (u8), residual (f32), coefficients 2 Σ(L+1)² (f32) |
 //! | 8 | FNV-1a 64 checksum of all preceding bytes |
 //!
 //! Shapes are f32 (about 7 digits: far below what any sound needs) so a 200-mode model of a
@@ -21,12 +25,13 @@
 
 use crate::atomic::write_atomic;
 use crate::{parse_err, Result};
+use resound_core::radiation::{AcousticTransfer, ModeTransfer};
 use resound_core::{Material, ModalModel};
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"RSMODAL\0";
 /// Current format version.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 pub(crate) fn fnv1a(data: &[u8]) -> u64 {
     let mut h = Fnv1a::new();
@@ -101,6 +106,33 @@ pub fn encode(m: &ModalModel) -> Vec<u8> {
     for x in &m.shapes {
         b.extend_from_slice(&x.to_le_bytes());
     }
+    match &m.transfer {
+        None => b.extend_from_slice(&0u32.to_le_bytes()),
+        Some(t) => {
+            b.extend_from_slice(&1u32.to_le_bytes());
+            for x in [
+                t.centre_m[0],
+                t.centre_m[1],
+                t.centre_m[2],
+                t.radius_m,
+                t.sound_speed_m_s,
+                t.air_density_kg_m3,
+                t.grid_start_hz,
+            ] {
+                b.extend_from_slice(&x.to_le_bytes());
+            }
+            b.extend_from_slice(&t.per_octave.to_le_bytes());
+            for mt in &t.modes {
+                b.extend_from_slice(&mt.first.to_le_bytes());
+                b.extend_from_slice(&(mt.orders.len() as u32).to_le_bytes());
+                b.extend_from_slice(&mt.orders);
+                b.extend_from_slice(&mt.residual.to_le_bytes());
+                for x in &mt.coeffs {
+                    b.extend_from_slice(&x.to_le_bytes());
+                }
+            }
+        }
+    }
     let h = fnv1a(&b);
     b.extend_from_slice(&h.to_le_bytes());
     b
@@ -144,6 +176,18 @@ pub(crate) fn open<'a>(
     not_magic: &str,
     bad: &dyn Fn(&str) -> crate::IoError,
 ) -> Result<R<'a>> {
+    open_versions(data, magic, version..=version, not_magic, bad).map(|(r, _)| r)
+}
+
+/// [`open`] accepting any version in `versions`; also returns the version found.
+pub(crate) fn open_versions<'a>(
+    data: &'a [u8],
+    magic: &[u8; 8],
+    versions: std::ops::RangeInclusive<u32>,
+    not_magic: &str,
+    bad: &dyn Fn(&str) -> crate::IoError,
+) -> Result<(R<'a>, u32)> {
+    let version = *versions.end();
     if data.len() < 8 || &data[..8] != magic {
         return Err(bad(not_magic));
     }
@@ -153,7 +197,7 @@ pub(crate) fn open<'a>(
     let (body, sum) = data.split_at(data.len() - 8);
     let mut r = R { d: body, p: 8 };
     let found = r.u32().ok_or_else(|| bad("truncated"))?;
-    if found != version {
+    if !versions.contains(&found) {
         return Err(bad(&format!(
             "format version {found}; this build reads version {version}"
         )));
@@ -161,7 +205,7 @@ pub(crate) fn open<'a>(
     if u64::from_le_bytes(sum.try_into().unwrap_or([0; 8])) != fnv1a(body) {
         return Err(bad("checksum mismatch (file is truncated or corrupt)"));
     }
-    Ok(r)
+    Ok((r, found))
 }
 
 /// Decodes a model; `path` is for messages.
@@ -171,7 +215,13 @@ pub(crate) fn open<'a>(
 /// or an inconsistent model.
 pub fn decode(data: &[u8], path: &Path) -> Result<ModalModel> {
     let bad = |m: &str| parse_err(path, format!("modal model file: {m}"));
-    let mut r = open(data, MAGIC, VERSION, "not a .rmodal file (bad magic)", &bad)?;
+    let (mut r, version) = open_versions(
+        data,
+        MAGIC,
+        1..=VERSION,
+        "not a .rmodal file (bad magic)",
+        &bad,
+    )?;
     let trunc = || bad("truncated");
     let nlen = r.u32().ok_or_else(trunc)? as usize;
     let name = String::from_utf8(r.take(nlen).ok_or_else(trunc)?.to_vec())
@@ -205,8 +255,26 @@ pub fn decode(data: &[u8], path: &Path) -> Result<ModalModel> {
     let sb = r
         .take(ns.checked_mul(4).ok_or_else(trunc)?)
         .ok_or_else(trunc)?;
+    let transfer = if version >= 2 && r.u32().ok_or_else(trunc)? == 1 {
+        Some(read_transfer(&mut r, nm).ok_or_else(trunc)?)
+    } else {
+        None
+    };
     if r.p != data.len() - 8 {
         return Err(bad("trailing bytes"));
+    }
+    if let Some(t) = &transfer {
+        let ok_grid = t.grid_start_hz > 0.0 && t.per_octave > 0 && t.per_octave <= 48;
+        let ok_air = t.sound_speed_m_s > 0.0 && t.air_density_kg_m3 > 0.0 && t.radius_m > 0.0;
+        if !(ok_grid && ok_air)
+            || t.modes
+                .iter()
+                .any(|m| m.coeffs.iter().any(|c| !c.is_finite()))
+        {
+            return Err(bad(
+                "acoustic transfer has a non-physical or non-finite value",
+            ));
+        }
     }
     let m = ModalModel {
         material,
@@ -222,9 +290,46 @@ pub fn decode(data: &[u8], path: &Path) -> Result<ModalModel> {
             .collect(),
         fem_dofs,
         fem_elements,
+        transfer,
     };
     m.check().map_err(|e| bad(&e.to_string()))?;
     Ok(m)
+}
+
+fn read_transfer(r: &mut R<'_>, n_modes: usize) -> Option<AcousticTransfer> {
+    let h = r.f64s(7)?;
+    let per_octave = r.u32()?;
+    let mut modes = Vec::with_capacity(n_modes);
+    for _ in 0..n_modes {
+        let first = r.u32()?;
+        let n = r.u32()? as usize;
+        let orders = r.take(n)?.to_vec();
+        let residual = f32::from_le_bytes(r.take(4)?.try_into().ok()?);
+        let nc: usize = orders
+            .iter()
+            .map(|&l| (usize::from(l) + 1).pow(2) * 2)
+            .sum();
+        let coeffs = r
+            .take(nc.checked_mul(4)?)?
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        modes.push(ModeTransfer {
+            first,
+            orders,
+            coeffs,
+            residual,
+        });
+    }
+    Some(AcousticTransfer {
+        centre_m: [h[0], h[1], h[2]],
+        radius_m: h[3],
+        sound_speed_m_s: h[4],
+        air_density_kg_m3: h[5],
+        grid_start_hz: h[6],
+        per_octave,
+        modes,
+    })
 }
 
 /// Writes a model atomically.

@@ -373,6 +373,7 @@ fn model_file_round_trip_and_corruption() {
         shapes: (0..18).map(|i| i as f32 * -0.5).collect(),
         fem_dofs: 123,
         fem_elements: 45,
+        transfer: None,
     };
     let p = dir.path().join("m.rmodal");
     model_file::save(&p, &m).unwrap();

@@ -20,7 +20,9 @@ pub mod block_lanczos;
 pub mod dense;
 pub mod eigen;
 pub mod model;
+pub mod radiation;
 
 pub use eigen::{solve_generalized, EigenInfo, EigenMethod, EigenParams, ModalError, Stage};
 pub use model::{Geometry, ModalBuilder, ModalParams, ModalSolution, ModalSolveInfo, ModelError};
+pub use radiation::{fit_transfer, model_transfer, TransferError, TransferInfo, TransferParams};
 pub use resound_core::ModalModel;

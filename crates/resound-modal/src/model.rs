@@ -429,6 +429,7 @@ fn solve_fem(
         shapes,
         fem_dofs: fem.n_dofs() as u64,
         fem_elements: fem.n_elements as u64,
+        transfer: None,
     };
     info.eigen = einfo;
     info.total_s = t0.elapsed().as_secs_f64();

@@ -423,6 +423,8 @@ pub fn scene_audio(
     if params.ambisonics {
         spatializer = spatializer.into_ambisonics();
     }
+    // Voices as sources 0..n, grain players as n..2n (each glides on its own).
+    spatializer.track_sources(2 * positions.len());
     if !spatializer.set_reflection(params.reflection) {
         return Err(SynthError::Parameter(format!(
             "floor reflection: a finite height and a coefficient in [0, 1], got {:?}",
@@ -671,12 +673,13 @@ impl SceneAudio {
 
     fn render(&mut self, out: &mut [&mut [f32]], at: usize, len: usize) {
         let positions = &self.positions;
+        let n_sources = positions.len();
         let spatializer = &mut self.spatializer;
         let mut sounding = 0u64;
         self.engine
             .process_voices(len, &mut |source, offset, block| {
                 sounding += 1;
-                spatializer.place(block, offset, positions[source]);
+                spatializer.place_source(source, block, offset, positions[source]);
             });
         for (i, p) in self.players.iter_mut().enumerate() {
             let Some(p) = p else { continue };
@@ -687,7 +690,7 @@ impl SceneAudio {
             block.fill(0.0);
             p.process(block);
             sounding += 1;
-            spatializer.place(block, 0, positions[i]);
+            spatializer.place_source(n_sources + i, block, 0, positions[i]);
         }
         match out {
             [a] => spatializer.render(&mut [&mut a[at..at + len]]),

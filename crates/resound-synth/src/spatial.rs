@@ -24,7 +24,24 @@ pub struct Spatializer {
     max_delay: usize,
     max_block: usize,
     reflection: Option<FloorReflection>,
+    /// Per tracked source (direct, image): the delay and gains of its last block.
+    tracks: Vec<Track>,
 }
+
+/// A tracked source's glide: where its delay (samples) and gains are and where they go.
+#[derive(Clone, Copy, Debug, Default)]
+struct Track {
+    delay: f64,
+    gains: [f32; 4],
+    target_delay: usize,
+    target_gains: [f32; 4],
+    /// Samples left to the target.
+    left: usize,
+    live: bool,
+}
+
+/// How long a tracked source glides to a new delay and gains: about one physics step.
+pub const GLIDE_S: f64 = 1.0 / 240.0;
 
 /// A floor that reflects sound: the plane `y = height_m`, and its pressure reflection
 /// coefficient (0–1; hard floors 0.9–0.98, carpet 0.3–0.6 at mid frequencies).
@@ -68,7 +85,13 @@ impl Spatializer {
             max_delay,
             max_block,
             reflection: None,
+            tracks: Vec::new(),
         })
+    }
+
+    /// Tracks `n` sources for [`Spatializer::place_source`] (allocates; call before rendering).
+    pub fn track_sources(&mut self, n: usize) {
+        self.tracks = vec![Track::default(); 2 * n];
     }
 
     /// Moves the listener to `position` (m) for the blocks placed from now on; false (and no
@@ -121,18 +144,63 @@ impl Spatializer {
             offset + block.len() <= self.max_block,
             "block beyond max_block"
         );
-        self.place_one(block, offset, position, 1.0);
+        self.place_tracked(None, block, offset, position);
+    }
+
+    /// [`Spatializer::place`] for source `source` of those tracked
+    /// ([`Spatializer::track_sources`]; others are placed untracked): when its delay or gains
+    /// changed since its last block (it moved, or the listener did) they glide from the old to
+    /// the new over this block — the delay by writing each sample at its fractional position
+    /// (linear), the gains linearly — so motion makes no gap, doubled sample or gain step (a
+    /// click the physics did not make). A source that stays put is placed exactly as by
+    /// `place`. Never allocates.
+    pub fn place_source(
+        &mut self,
+        source: usize,
+        block: &[f32],
+        offset: usize,
+        position: [f64; 3],
+    ) {
+        let tracked = (2 * source + 1 < self.tracks.len()).then_some(source);
+        self.place_tracked(tracked, block, offset, position);
+    }
+
+    fn place_tracked(
+        &mut self,
+        source: Option<usize>,
+        block: &[f32],
+        offset: usize,
+        position: [f64; 3],
+    ) {
+        assert!(
+            offset + block.len() <= self.max_block,
+            "block beyond max_block"
+        );
+        self.place_one(source.map(|s| 2 * s), block, offset, position, 1.0);
         if let Some(f) = self.reflection {
             // The image source mirrored in the floor plane y = height, its pressure scaled by
             // the reflection coefficient (a locally reacting floor at any angle: a constant).
             let image = [position[0], 2.0 * f.height_m - position[1], position[2]];
             if position[1] >= f.height_m && self.listener[1] >= f.height_m {
-                self.place_one(block, offset, image, f.coefficient);
+                self.place_one(
+                    source.map(|s| 2 * s + 1),
+                    block,
+                    offset,
+                    image,
+                    f.coefficient,
+                );
             }
         }
     }
 
-    fn place_one(&mut self, block: &[f32], offset: usize, position: [f64; 3], scale: f64) {
+    fn place_one(
+        &mut self,
+        track: Option<usize>,
+        block: &[f32],
+        offset: usize,
+        position: [f64; 3],
+        scale: f64,
+    ) {
         let l = self.listener;
         let d = [position[0] - l[0], position[1] - l[1], position[2] - l[2]];
         let r = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
@@ -160,12 +228,85 @@ impl Spatializer {
             4 => [g, -g * u[0], g * u[1], -g * u[2]],
             _ => [g, 0.0, 0.0, 0.0],
         };
+        let gains_f32 = gains.map(|g| g as f32);
         let cap = self.rings[0].len();
+        if let Some(t) = track.and_then(|k| self.tracks.get_mut(k)) {
+            let glide = (GLIDE_S * self.sample_rate_hz).round().max(1.0) as usize;
+            if !t.live {
+                *t = Track {
+                    delay: delay as f64,
+                    gains: gains_f32,
+                    target_delay: delay,
+                    target_gains: gains_f32,
+                    left: 0,
+                    live: true,
+                };
+            } else if delay != t.target_delay || gains_f32 != t.target_gains {
+                t.target_delay = delay;
+                t.target_gains = gains_f32;
+                // A jump of more than half the glide (a teleport) is taken at once.
+                t.left = if (delay as f64 - t.delay).abs() * 2.0 > glide as f64 {
+                    t.delay = delay as f64;
+                    t.gains = gains_f32;
+                    0
+                } else {
+                    glide
+                };
+            }
+            if t.left > 0 {
+                // Each sample moves 1/left of the way; the rest of the block (if the glide ends
+                // in it) is written at the target like an untracked source.
+                let base = self.read + offset;
+                let n = block.len();
+                let mut i = 0;
+                while i < n && t.left > 0 {
+                    let k = t.left as f64;
+                    t.delay += (t.target_delay as f64 - t.delay) / k;
+                    for c in 0..4 {
+                        t.gains[c] += (t.target_gains[c] - t.gains[c]) / t.left as f32;
+                    }
+                    t.left -= 1;
+                    if t.left == 0 {
+                        t.delay = t.target_delay as f64;
+                        t.gains = t.target_gains;
+                    }
+                    let kf = t.delay.floor();
+                    let frac = (t.delay - kf) as f32;
+                    let at = (base + i + kf as usize) % cap;
+                    let next = (at + 1) % cap;
+                    for (c, ring) in self.rings.iter_mut().enumerate() {
+                        let v = block[i] * t.gains[c];
+                        ring[at] += v * (1.0 - frac);
+                        if frac > 0.0 {
+                            ring[next] += v * frac;
+                        }
+                    }
+                    i += 1;
+                }
+                if i == n {
+                    return;
+                }
+                // The remainder at the target: fall through with the block's tail.
+                let (tail, off) = (&block[i..], offset + i);
+                let start = (self.read + off + delay) % cap;
+                let first = tail.len().min(cap - start);
+                for (c, ring) in self.rings.iter_mut().enumerate() {
+                    let gc = gains_f32[c];
+                    for (o, &x) in ring[start..start + first].iter_mut().zip(&tail[..first]) {
+                        *o += x * gc;
+                    }
+                    for (o, &x) in ring[..tail.len() - first].iter_mut().zip(&tail[first..]) {
+                        *o += x * gc;
+                    }
+                }
+                return;
+            }
+        }
         let start = (self.read + offset + delay) % cap;
         // Two contiguous runs (before and after the ring's end) instead of a modulo per sample.
         let first = block.len().min(cap - start);
         for (c, ring) in self.rings.iter_mut().enumerate() {
-            let gc = gains[c] as f32;
+            let gc = gains_f32[c];
             for (o, &x) in ring[start..start + first].iter_mut().zip(&block[..first]) {
                 *o += x * gc;
             }
@@ -199,6 +340,58 @@ impl Spatializer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Largest sample-to-sample step of a 1 kHz tone (amplitude 1 at the source) from a source
+    /// moving along x past a stereo listener at `speed` m/s, blocks of 200 samples at 48 kHz,
+    /// relative to the step the tone alone makes at the gain of the nearest point.
+    fn moving_tone_step(speed: f64, tracked: bool) -> f64 {
+        let fs = 48_000.0;
+        let mut s = Spatializer::new(fs, true, [0.0, 0.0, 0.0], 1.0, 200).unwrap();
+        s.track_sources(1);
+        let (mut l, mut r) = (vec![0.0f32; 200], vec![0.0f32; 200]);
+        let mut out = Vec::new();
+        let w = 2.0 * std::f64::consts::PI * 1000.0 / fs;
+        for b in 0..480 {
+            let block: Vec<f32> = (0..200)
+                .map(|i| ((b * 200 + i) as f64 * w).sin() as f32)
+                .collect();
+            let x = -2.0 + speed * b as f64 * 200.0 / fs;
+            let p = [x, 0.0, -1.0];
+            if tracked {
+                s.place_source(0, &block, 0, p);
+            } else {
+                s.place(&block, 0, p);
+            }
+            l.fill(0.0);
+            r.fill(0.0);
+            s.render(&mut [&mut l, &mut r]);
+            out.extend(
+                l.iter()
+                    .zip(&r)
+                    .map(|(a, b)| (f64::from(*a), f64::from(*b))),
+            );
+        }
+        // Skip the first 0.2 s (the delay line filling) and compare each step with what a
+        // tone at that sample's gain makes: 2 sin(w/2) × the larger channel gain (≤ 1/r ≤ 1).
+        let natural = 2.0 * (w / 2.0).sin();
+        out.windows(2)
+            .skip(9_600)
+            .map(|p| (p[1].0 - p[0].0).abs().max((p[1].1 - p[0].1).abs()) / natural)
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn a_moving_source_glides_without_steps() {
+        // Static: the tone's own step (≤ 1 at gain ≤ 1).
+        let still = moving_tone_step(0.0, true);
+        assert!(still <= 1.0 + 1e-3, "{still}");
+        // At 5 m/s the delay changes by ~3 samples per block: placed untracked, each block
+        // starts with a gap or an overlap, a step well above the tone's; tracked, it glides.
+        let untracked = moving_tone_step(5.0, false);
+        let tracked = moving_tone_step(5.0, true);
+        assert!(untracked > 1.3, "untracked {untracked}");
+        assert!(tracked <= 1.02, "tracked {tracked}");
+    }
 
     #[test]
     fn a_source_is_delayed_attenuated_and_panned() {

@@ -53,6 +53,7 @@ pub mod grain_files;
 pub mod material;
 pub mod mesh;
 pub mod object;
+pub mod radiation;
 pub mod recording;
 pub mod scene;
 pub mod scrape;

@@ -264,6 +264,16 @@ pub struct SolveRow<'a> {
     pub rigid_max_hz: f64,
 }
 
+/// The acoustic transfer's fit, as `resound modal --transfer --json` prints it.
+#[derive(Clone, Debug, Serialize)]
+pub struct TransferRow {
+    /// What the fit did.
+    #[serde(flatten)]
+    pub info: resound_modal::TransferInfo,
+    /// Time the fit took, s.
+    pub fit_s: f64,
+}
+
 /// A modal model and its solve, as `resound modal --json` prints it.
 #[derive(Serialize)]
 pub struct ModalReport<'a> {
@@ -289,6 +299,11 @@ pub struct ModalReport<'a> {
     #[serde(skip_serializing_if = "Option::is_none")]
     /// Load time of a saved model, ms.
     pub load_ms: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    /// The acoustic transfer fitted here (`resound modal --transfer`).
+    pub transfer: Option<TransferRow>,
+    /// Whether the model holds an acoustic transfer.
+    pub has_transfer: bool,
     /// The modes, ascending.
     pub modes: Vec<ModeRow>,
 }
@@ -325,6 +340,8 @@ impl<'a> ModalReport<'a> {
                 density_kg_m3: model.material.density,
             },
             surface_vertices: model.n_vertices(),
+            transfer: None,
+            has_transfer: model.transfer.is_some(),
             warnings: info.map_or(&[][..], |i| &i.warnings[..]),
             voxel: info.and_then(|i| i.discretize.as_ref()).map(|r| VoxelRow {
                 resolution: r.resolution,

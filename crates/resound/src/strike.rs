@@ -11,6 +11,7 @@ use resound_synth::render::{bank_modes, render_strike as render_bank, REFERENCE_
 use resound_synth::residual::{GriffinLim, Pairing, ResidualSource};
 use resound_synth::BankMode;
 use serde::Serialize;
+use std::borrow::Cow;
 
 /// What is struck.
 #[derive(Clone, Copy, Debug)]
@@ -58,6 +59,10 @@ pub struct StrikeParams {
     pub duration_s: f64,
     /// Sample rate, Hz.
     pub sample_rate_hz: u32,
+    /// A microphone (model coordinates, m): each mode's gain is weighted by what it radiates
+    /// there (the model's acoustic transfer, fitted when its file holds none). `None`: the
+    /// modes' surface motion alone, as in Ren 2013.
+    pub mic_m: Option<[f64; 3]>,
 }
 
 impl Default for StrikeParams {
@@ -71,6 +76,7 @@ impl Default for StrikeParams {
             residual: true,
             duration_s: 2.0,
             sample_rate_hz: 48_000,
+            mic_m: None,
         }
     }
 }
@@ -90,6 +96,13 @@ pub struct StrikeInfo {
     pub residual_transfer_s: f64,
     /// The hit point on the surface (objects only), m.
     pub hit: Option<[f64; 3]>,
+    /// The microphone the modes radiate to, m (objects with `mic_m`).
+    pub mic: Option<[f64; 3]>,
+    /// Time spent fitting the acoustic transfer (a model file without one), s.
+    pub transfer_fit_s: f64,
+    /// What is not credible about this strike (front ends print them with their own).
+    #[serde(skip)]
+    pub warnings: Vec<String>,
 }
 
 /// A rendered strike and its parts (the live engine replays the parts: modes struck by the
@@ -229,7 +242,22 @@ pub fn render_strike(struck: Struck<'_>, p: &StrikeParams) -> Result<Strike> {
         } => {
             material.validate().map_err(invalid)?;
             let gamma0 = model.material.youngs_modulus / model.material.density;
-            let modes = material.modes(&model.eigenvalues, &hit.gains, gamma0, 0.5 * fs);
+            let gains: Cow<'_, [f64]> = match p.mic_m {
+                None => Cow::Borrowed(&hit.gains),
+                Some(mic) => {
+                    let t1 = std::time::Instant::now();
+                    let (transfer, fitted) = crate::radiation::transfer_of(model)?;
+                    if fitted.is_some() {
+                        info.transfer_fit_s = t1.elapsed().as_secs_f64();
+                    }
+                    let freqs = crate::radiation::freqs_in(model, material.gamma);
+                    let (f, w) = crate::radiation::mic_factors(&transfer, &freqs, mic)?;
+                    info.mic = Some(mic);
+                    info.warnings.extend(w);
+                    Cow::Owned(hit.gains.iter().zip(&f).map(|(g, f)| g * f).collect())
+                }
+            };
+            let modes = material.modes(&model.eigenvalues, &gains, gamma0, 0.5 * fs);
             impact.object = Elastic {
                 youngs_modulus: material.gamma * model.material.density,
                 poisson_ratio: model.material.poisson_ratio,
