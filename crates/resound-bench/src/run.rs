@@ -1695,7 +1695,7 @@ fn run_radiation(a: RadiationBenchArgs) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!(
-            "Spot, {} modes, {} vertices: solve {:.2} s; transfer fit {:.2} s ({} sources, {} grid frequencies, {:.1} MB of coefficients, worst misfit {:.2}, {} modes above 0.5); peak RSS {:.0} MiB after the solve, {:.0} MiB after the fit",
+            "Spot, {} modes, {} vertices: solve {:.2} s; transfer fit {:.2} s ({} sources, {} grid frequencies, {:.1} MB of coefficients, worst misfit {:.2}, {} modes above 0.9); peak RSS {:.0} MiB after the solve, {:.0} MiB after the fit",
             v.modes, v.surface_vertices, solve_s, fit_s, v.sources, v.grid_points,
             v.transfer_bytes as f64 / 1e6, v.worst_misfit, v.poorly_fitted,
             rss_solve.unwrap_or(f64::NAN), rss_fit.unwrap_or(f64::NAN)

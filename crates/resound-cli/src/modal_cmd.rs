@@ -164,7 +164,7 @@ pub fn run(a: ModalArgs) -> Result<()> {
         let info = info?;
         if info.poorly_fitted > 0 {
             eprintln!(
-                "warning: {} modes' surface velocity is fitted with more than 50 % misfit \
+                "warning: {} modes' surface velocity is fitted with more than 90 % misfit \
                  (worst {:.2}): their radiation is approximate (raise --transfer-sources, or refine the mesh)",
                 info.poorly_fitted, info.worst_residual
             );

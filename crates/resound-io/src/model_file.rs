@@ -17,7 +17,7 @@
 //! | 12mv | mass-normalised shapes (f32, 1/√kg), mode-major |
 //! | 4 | 1 when an acoustic transfer follows, else 0 (u32) |
 //! | 48 + 4 | transfer: centre (3 × f64, m), radius (m), sound speed (m/s), air density (kg/m³), grid start (Hz) as f64 — 7 × f64 = 56 bytes —, points per octave (u32) |
-//! | per mode | first grid point, points n (u32), n orders (u8), residual (f32), coefficients 2 Σ(L+1)² (f32) |
+//! | per mode | first grid point, points n (u32), n orders (u8), n misfits (f32), coefficients 2 Σ(L+1)² (f32) |
 //! | 8 | FNV-1a 64 checksum of all preceding bytes |
 //!
 //! Shapes are f32 (about 7 digits: far below what any sound needs) so a 200-mode model of a
@@ -126,7 +126,9 @@ pub fn encode(m: &ModalModel) -> Vec<u8> {
                 b.extend_from_slice(&mt.first.to_le_bytes());
                 b.extend_from_slice(&(mt.orders.len() as u32).to_le_bytes());
                 b.extend_from_slice(&mt.orders);
-                b.extend_from_slice(&mt.residual.to_le_bytes());
+                for r in &mt.residuals {
+                    b.extend_from_slice(&r.to_le_bytes());
+                }
                 for x in &mt.coeffs {
                     b.extend_from_slice(&x.to_le_bytes());
                 }
@@ -304,7 +306,11 @@ fn read_transfer(r: &mut R<'_>, n_modes: usize) -> Option<AcousticTransfer> {
         let first = r.u32()?;
         let n = r.u32()? as usize;
         let orders = r.take(n)?.to_vec();
-        let residual = f32::from_le_bytes(r.take(4)?.try_into().ok()?);
+        let residuals = r
+            .take(n.checked_mul(4)?)?
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
         let nc: usize = orders
             .iter()
             .map(|&l| (usize::from(l) + 1).pow(2) * 2)
@@ -318,7 +324,7 @@ fn read_transfer(r: &mut R<'_>, n_modes: usize) -> Option<AcousticTransfer> {
             first,
             orders,
             coeffs,
-            residual,
+            residuals,
         });
     }
     Some(AcousticTransfer {

@@ -391,6 +391,56 @@ fn model_file_round_trip_and_corruption() {
         std::fs::write(&p, &data).unwrap();
         assert!(model_file::load(&p).is_err(), "{what}");
     }
+    // With an acoustic transfer: written and read back exactly.
+    let mut with = m.clone();
+    with.transfer = Some(resound_core::AcousticTransfer {
+        centre_m: [0.3, 0.3, 0.1],
+        radius_m: 0.8,
+        sound_speed_m_s: 343.0,
+        air_density_kg_m3: 1.204,
+        grid_start_hz: 10.0,
+        per_octave: 3,
+        modes: vec![
+            resound_core::radiation::ModeTransfer {
+                first: 20,
+                orders: vec![1, 2],
+                coeffs: (0..2 * (4 + 9)).map(|i| i as f32 * 0.25 - 3.0).collect(),
+                residuals: vec![0.125, 0.5],
+            },
+            resound_core::radiation::ModeTransfer {
+                first: 0,
+                orders: vec![],
+                coeffs: vec![],
+                residuals: vec![],
+            },
+        ],
+    });
+    model_file::save(&p, &with).unwrap();
+    assert_eq!(model_file::load(&p).unwrap(), with);
+    // A version-1 file (no transfer section) is still read: rewrite the version and drop the
+    // section's flag, then fix the checksum.
+    let mut v1 = model_file::encode(&m);
+    v1[8..12].copy_from_slice(&1u32.to_le_bytes());
+    let body_len = v1.len() - 8 - 4;
+    v1.truncate(body_len);
+    let h = {
+        let mut f = model_file::Fnv1a::new();
+        f.write(&v1);
+        f.finish()
+    };
+    v1.extend_from_slice(&h.to_le_bytes());
+    std::fs::write(&p, &v1).unwrap();
+    assert_eq!(model_file::load(&p).unwrap(), m);
+    // A non-finite coefficient is refused.
+    let mut bad = with.clone();
+    if let Some(t) = bad.transfer.as_mut() {
+        t.modes[0].coeffs[3] = f32::NAN;
+    }
+    model_file::save(&p, &bad).unwrap();
+    assert!(model_file::load(&p)
+        .unwrap_err()
+        .to_string()
+        .contains("non-finite"));
 }
 #[path = "formats/audio.rs"]
 mod audio;

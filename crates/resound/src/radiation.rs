@@ -80,6 +80,7 @@ pub fn mic_factors(
     let mut scratch = FieldScratch::new(transfer.max_order());
     let mut out_of_range = 0;
     let mut poor = 0;
+    let mut missing = 0;
     let factors = freqs_hz
         .iter()
         .enumerate()
@@ -89,8 +90,11 @@ pub fn mic_factors(
                     out_of_range += 1;
                 }
             }
-            if transfer.modes[j].residual > 0.5 {
+            if transfer.misfit_at(j, f).is_some_and(|r| r > 0.9) {
                 poor += 1;
+            }
+            if transfer.modes[j].orders.is_empty() {
+                missing += 1;
             }
             transfer.factor(j, f, mic, &mut scratch).unwrap_or(0.0)
         })
@@ -102,9 +106,15 @@ pub fn mic_factors(
              taken at the nearest stored frequency"
         ));
     }
+    if missing > 0 {
+        warnings.push(format!(
+            "{missing} modes have no stored transfer (above the fit's top frequency): they are \
+             left out"
+        ));
+    }
     if poor > 0 {
         warnings.push(format!(
-            "{poor} modes' surface velocity is fitted with more than 50 % misfit (a shape far \
+            "{poor} modes' surface velocity is fitted with more than 90 % misfit (a shape far \
              from a sphere or a high frequency): their radiation is approximate"
         ));
     }
