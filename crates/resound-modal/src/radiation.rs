@@ -501,7 +501,7 @@ fn equivalent_sources(
         .iter()
         .filter_map(|&v| {
             let (x, n) = (vertices[v], normals[v]);
-            [1.0, 0.7, 0.5, 0.35, 0.25].iter().find_map(|&f| {
+            [2.0, 1.4, 1.0, 0.7, 0.5, 0.35].iter().find_map(|&f| {
                 let depth = (f * spacing).min(0.3 * radius);
                 let s = [0, 1, 2].map(|c| x[c] - depth * n[c]);
                 let sp = resound_core::geometry::closest_surface_point(vertices, triangles, s)?;

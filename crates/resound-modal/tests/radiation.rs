@@ -91,7 +91,7 @@ fn errors(segments: usize, axis: [f64; 3]) -> (f64, f64) {
                 let x = [dir[0] * r, dir[1] * r, dir[2] * r];
                 let p = t.pressure(i, f, x, &mut scratch).unwrap();
                 let e = (db(p) - db(monopole(ka, r))).abs();
-                if e > 0.2 && std::env::var("RAD_DEBUG").is_ok() {
+                if e > 0.5 && std::env::var("RAD_DEBUG").is_ok() {
                     eprintln!("monopole seg {segments} ka {ka} r {r}: {e:.2} dB");
                 }
                 level = level.max(e);
@@ -106,7 +106,7 @@ fn errors(segments: usize, axis: [f64; 3]) -> (f64, f64) {
                 let p = t.pressure(KA.len() + i, f, x, &mut scratch).unwrap();
                 if th.cos().abs() > 0.2 {
                     let e = (db(p) - db(dipole(ka, r, th.cos()))).abs();
-                    if e > 0.2 && std::env::var("RAD_DEBUG").is_ok() {
+                    if e > 0.5 && std::env::var("RAD_DEBUG").is_ok() {
                         eprintln!("dipole seg {segments} ka {ka} r {r} th {th:.2}: {e:.2} dB");
                     }
                     level = level.max(e);
