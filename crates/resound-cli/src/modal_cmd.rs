@@ -61,7 +61,7 @@ pub struct ModalArgs {
     /// expansion on a frequency grid ± 2 octaves around the mode) and store it in the model.
     #[arg(long)]
     pub transfer: bool,
-    /// Highest multipole order of the transfer (1–30; cost grows as its fourth power).
+    /// Highest multipole order of the transfer (1–30; its storage per mode grows as (order + 1)²).
     #[arg(long, default_value_t = 20, requires = "transfer")]
     pub transfer_order: usize,
     /// Most equivalent sources of the transfer fit (cost grows as their square).

@@ -268,7 +268,15 @@ pub fn decode(data: &[u8], path: &Path) -> Result<ModalModel> {
     if let Some(t) = &transfer {
         let ok_grid = t.grid_start_hz > 0.0 && t.per_octave > 0 && t.per_octave <= 48;
         let ok_air = t.sound_speed_m_s > 0.0 && t.air_density_kg_m3 > 0.0 && t.radius_m > 0.0;
-        if !(ok_grid && ok_air)
+        // Orders and grid extents the fit can make (order ≤ 30; a grid point ≤ 20 octaves up):
+        // anything beyond would make evaluation overflow or allocate without bound.
+        let grid_top = u64::from(t.per_octave) * 20;
+        let ok_extent = t.modes.iter().all(|m| {
+            m.orders.iter().all(|&l| l <= 30)
+                && u64::from(m.first) + m.orders.len() as u64 <= grid_top
+                && m.residuals.iter().all(|r| r.is_finite())
+        });
+        if !(ok_grid && ok_air && ok_extent)
             || t.modes
                 .iter()
                 .any(|m| m.coeffs.iter().any(|c| !c.is_finite()))

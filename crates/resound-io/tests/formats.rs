@@ -431,6 +431,14 @@ fn model_file_round_trip_and_corruption() {
     v1.extend_from_slice(&h.to_le_bytes());
     std::fs::write(&p, &v1).unwrap();
     assert_eq!(model_file::load(&p).unwrap(), m);
+    // An order beyond what the fit makes (evaluation would overflow) is refused.
+    let mut deep = with.clone();
+    if let Some(t) = deep.transfer.as_mut() {
+        t.modes[0].orders[0] = 200;
+        t.modes[0].coeffs = vec![0.0; 2 * (201 * 201 + 9)];
+    }
+    model_file::save(&p, &deep).unwrap();
+    assert!(model_file::load(&p).is_err());
     // A non-finite coefficient is refused.
     let mut bad = with.clone();
     if let Some(t) = bad.transfer.as_mut() {

@@ -98,6 +98,23 @@ pub enum TransferError {
     Parameter(String),
 }
 
+/// +1 when the triangles wind outward (positive signed volume), −1 when inward.
+fn winding_sign(vertices: &[[f64; 3]], triangles: &[[u32; 3]]) -> f64 {
+    let volume: f64 = triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| vertices[i as usize]);
+            a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+                + a[2] * (b[0] * c[1] - b[1] * c[0])
+        })
+        .sum();
+    if volume < 0.0 {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
 /// Per surface vertex: area-weighted unit outward normal and a third of the adjacent triangles' area.
 pub fn vertex_normals_and_areas(
     vertices: &[[f64; 3]],
@@ -123,15 +140,7 @@ pub fn vertex_normals_and_areas(
         }
     }
     // Outward: flip all when the signed volume says the triangles wind inward.
-    let volume: f64 = triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| vertices[i as usize]);
-            a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                + a[2] * (b[0] * c[1] - b[1] * c[0])
-        })
-        .sum();
-    let sign = if volume < 0.0 { -1.0 } else { 1.0 };
+    let sign = winding_sign(vertices, triangles);
     for n in &mut normals {
         let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
         if len > 0.0 {
@@ -164,6 +173,16 @@ pub fn fit_transfer(
     }
     if triangles.is_empty() || nv < 4 {
         return bad("the surface has no triangles".into());
+    }
+    if let Some(t) = triangles
+        .iter()
+        .find(|t| t.iter().any(|&i| i as usize >= nv))
+    {
+        return bad(format!("triangle {t:?} refers past the {nv} vertices"));
+    }
+    if vertices.iter().flatten().any(|c| !c.is_finite()) || patterns.iter().any(|v| !v.is_finite())
+    {
+        return bad("a vertex or a normal velocity is not finite".into());
     }
     let p = params;
     if !(1..=30).contains(&p.max_order)
@@ -473,15 +492,7 @@ fn equivalent_sources(
         }
         next = best.1;
     }
-    let volume: f64 = triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| vertices[i as usize]);
-            a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-                + a[2] * (b[0] * c[1] - b[1] * c[0])
-        })
-        .sum();
-    let sign = if volume < 0.0 { -1.0 } else { 1.0 };
+    let sign = winding_sign(vertices, triangles);
     // The sources' spacing over the surface: a source about that deep makes a smooth field
     // at the surface (shallower ones show as bumps between them).
     let area: f64 = triangles

@@ -148,3 +148,27 @@ fn refining_the_sphere_converges() {
     }
     assert!(table[3] < 0.1, "{table:?}");
 }
+
+#[test]
+fn bad_surfaces_and_patterns_are_errors_not_panics() {
+    let mesh = sphere(A, 16);
+    let nv = mesh.vertices.len();
+    let ones = vec![1.0; nv];
+    let mut bad_tri = mesh.triangles.clone();
+    bad_tri[3][1] = nv as u32 + 5;
+    let e = fit_transfer(&mesh.vertices, &bad_tri, &ones, &[500.0], &params()).unwrap_err();
+    assert!(e.to_string().contains("refers past"), "{e}");
+    let mut nan = ones.clone();
+    nan[7] = f64::NAN;
+    let e = fit_transfer(&mesh.vertices, &mesh.triangles, &nan, &[500.0], &params()).unwrap_err();
+    assert!(e.to_string().contains("not finite"), "{e}");
+    let e = fit_transfer(
+        &mesh.vertices,
+        &mesh.triangles,
+        &ones[1..],
+        &[500.0],
+        &params(),
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("pattern values"), "{e}");
+}
