@@ -82,6 +82,7 @@ pub fn live_run_with(
                     .collect(),
                 grains: None,
                 position: [radius * a.cos(), 0.0, radius * a.sin()],
+                radiation: Vec::new(),
             }
         })
         .collect();

@@ -78,7 +78,7 @@ impl Sounding {
         sample_rate_hz: f64,
     ) -> Self {
         let poisson = model.material.poisson_ratio;
-        let s = resound::scene::body_sound(model, material, poisson, sample_rate_hz);
+        let s = resound::scene::body_sound(model, material, poisson, sample_rate_hz, None);
         let m = s.modes.len();
         let k = vertex.min(s.vertices.len().saturating_sub(1));
         Self {
@@ -222,6 +222,7 @@ fn start(
             gains: snd.gains.clone(),
             grains: None,
             position: t.translation.to_array().map(f64::from),
+            radiation: Vec::new(),
         });
         listen(&mut commands, e);
     }
@@ -235,6 +236,7 @@ fn start(
             gains: vec![0.0; spare],
             grains: None,
             position: [0.0; 3],
+            radiation: Vec::new(),
         });
     }
     free.reverse();

@@ -7,6 +7,7 @@
 //! seed = 1                  # surface textures
 //! stereo = true
 //! ambisonics = false        # true: 4 channels of first-order ambisonics (AmbiX W Y Z X)
+//! radiation = false         # true: modes radiate by each model's acoustic transfer
 //!
 //! [listener]
 //! position = [0.0, 0.3, 0.6]   # m (y is up)
@@ -77,6 +78,10 @@ pub struct SceneFile {
     /// First-order ambisonics (4 channels, AmbiX: W Y Z X, SN3D) instead of stereo.
     #[serde(default)]
     pub ambisonics: bool,
+    /// Each modal body's modes radiate by its acoustic transfer (level and directivity per
+    /// mode, near and far field; fitted once per model and cached with it) instead of alike.
+    #[serde(default)]
+    pub radiation: bool,
     /// Physics steps per second.
     #[serde(default = "default_steps")]
     pub steps_per_second: f64,

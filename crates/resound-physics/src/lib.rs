@@ -88,6 +88,18 @@ pub struct BodySound {
     /// carries its whole weight; a pair of bodies shares the mean of theirs. See
     /// [`DEFAULT_CONTACT_LOSS`] and the scene module's docs.
     pub contact_loss: f64,
+    /// How the modes radiate: the body's acoustic transfer (body frame) and, per mode of
+    /// `modes`, its mode in the transfer. `None`: every mode radiates alike (1/r).
+    pub radiation: Option<BodyRadiation>,
+}
+
+/// A body's acoustic transfer, shared by bodies of one model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BodyRadiation {
+    /// The transfer (body frame).
+    pub transfer: std::sync::Arc<resound_core::AcousticTransfer>,
+    /// Per mode of [`BodySound::modes`], its index in `transfer.modes`.
+    pub modes: Vec<usize>,
 }
 
 /// The contact loss factor of a body that names none: each mode of a body resting with its

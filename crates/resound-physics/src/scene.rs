@@ -7,6 +7,7 @@ use resound_grains::player::GrainPlayer;
 use resound_grains::Contact;
 use resound_synth::contact::{ContactForce, Profile, ROUGHNESS};
 use resound_synth::excitation::{ContactModel, Impact};
+use resound_synth::radiation::Radiator;
 use resound_synth::scene_audio::{
     scene_audio, AudioStats, Cue, CueSender, SceneAudio, SceneAudioParams, Source,
 };
@@ -763,6 +764,10 @@ pub struct ScenePhysics {
     last_step_s: f64,
     /// The contact loss factor last sent for each body.
     sent_loss: Vec<f64>,
+    /// Per body with an acoustic transfer, its radiation at the listener.
+    radiators: Vec<Option<Radiator>>,
+    /// Listener, world frame, m.
+    listener: [f64; 3],
 }
 
 /// The audio side's sources and settings for a scene's bodies (see [`ScenePhysics::new`]).
@@ -863,8 +868,58 @@ impl ScenePhysics {
                 gains,
                 grains,
                 position: arr(world.bodies[handles[i]].translation()),
+                radiation: Vec::new(),
             });
             kept.push(body);
+        }
+        let mut radiators = Vec::with_capacity(kept.len());
+        for b in &kept {
+            radiators.push(match b.sound.as_ref() {
+                Some(s) => match &s.radiation {
+                    Some(r) => {
+                        if r.modes.len() != s.modes.len() {
+                            return Err(SceneError::Body {
+                                name: b.name.clone(),
+                                message: format!(
+                                    "radiation names {} modes for {} sounding modes",
+                                    r.modes.len(),
+                                    s.modes.len()
+                                ),
+                            });
+                        }
+                        let modes: Vec<(usize, f64)> = r
+                            .modes
+                            .iter()
+                            .zip(&s.modes)
+                            .map(|(&j, &(f, _))| (j, f))
+                            .collect();
+                        Some(
+                            Radiator::new(std::sync::Arc::clone(&r.transfer), &modes).ok_or_else(
+                                || SceneError::Body {
+                                    name: b.name.clone(),
+                                    message: "radiation names a mode its transfer lacks, or a \
+                                              mode of no positive frequency"
+                                        .into(),
+                                },
+                            )?,
+                        )
+                    }
+                    None => None,
+                },
+                None => None,
+            });
+        }
+        // Each radiating body starts with its factors at the listener from its first pose, so
+        // no force ever reaches the audio side before them (a dropped cue later only leaves
+        // the previous factors in place).
+        for (i, r) in radiators.iter_mut().enumerate() {
+            let Some(r) = r else { continue };
+            let local = arr(world.bodies[handles[i]]
+                .position()
+                .inverse_transform_point(v3(params.listener)));
+            if let Some(f) = r.update(local) {
+                sources[i].radiation = f.to_vec();
+            }
         }
         let step_samples = (fs / params.steps_per_s).ceil() as usize + 1;
         let max_block = step_samples.max(block).max(1);
@@ -932,6 +987,8 @@ impl ScenePhysics {
                 offset: 0,
                 last_step_s: 0.0,
                 sent_loss: vec![0.0; n_bodies],
+                radiators,
+                listener: params.listener,
             },
             SceneSources {
                 sources,
@@ -1016,6 +1073,20 @@ impl ScenePhysics {
                 source: i as u32,
                 position: [p.x, p.y, p.z],
             });
+        }
+        // Radiation: each body's factors at the listener, sent when the listener, seen from
+        // the body, has turned or moved enough (before the forces, which they scale).
+        let listener = v3(self.listener);
+        for (i, r) in self.radiators.iter_mut().enumerate() {
+            let Some(r) = r else { continue };
+            let local = arr(self.world.bodies[self.handles[i]]
+                .position()
+                .inverse_transform_point(listener));
+            if let Some(f) = r.update(local) {
+                if !tx.radiation(i, f) {
+                    r.invalidate();
+                }
+            }
         }
         for &(i, at_sample, impulse) in &self.out.grain_impacts {
             if self.bodies[i].grains.is_some() {

@@ -42,6 +42,7 @@ fn sound(radius: f64) -> BodySound {
             poisson_ratio: 0.25,
         },
         contact_loss: 0.0,
+        radiation: None,
     }
 }
 

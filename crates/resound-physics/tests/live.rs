@@ -44,6 +44,7 @@ fn sound(radius: f64, f0: f64) -> BodySound {
             poisson_ratio: 0.25,
         },
         contact_loss: resound_physics::DEFAULT_CONTACT_LOSS,
+        radiation: None,
     }
 }
 

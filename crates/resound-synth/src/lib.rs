@@ -12,6 +12,7 @@
 //! - [`residual`]: the residual's transfer (§6.2) and reconstruction.
 //! - [`contact`]: continuous contact forces (sliding, rolling, textured scraping) step by step.
 //! - [`spatial`]: placing sources at a listener (distance, delay, pan).
+//! - [`radiation`]: a moving body's per-mode radiation factors at the listener.
 //! - [`scene_audio`]: the audio side of a scene (offline and live): voices, grains and the
 //!   spatializer fed by lock-free queues of cues.
 //! - [`live`]: a single-object live frontend/backend and the simulated audio clock.
@@ -23,6 +24,7 @@ pub mod contact;
 pub mod engine;
 pub mod excitation;
 pub mod live;
+pub mod radiation;
 pub mod render;
 pub mod residual;
 pub mod scene_audio;

@@ -41,6 +41,9 @@ pub struct Source {
     pub grains: Option<GrainPlayer>,
     /// Where it starts, m.
     pub position: [f64; 3],
+    /// Each mode's radiation factor at the listener as it starts (one per mode, see
+    /// [`Cue::Radiation`]; empty: every mode radiates alike). Later factors come as cues.
+    pub radiation: Vec<f32>,
 }
 
 /// Settings of [`scene_audio`].
@@ -162,6 +165,16 @@ pub enum Cue {
         /// Source index.
         source: u32,
         /// Modes (triples in the sample queue).
+        modes: u32,
+    },
+    /// A source's radiation factors from now on: `modes` values (one per mode, in its
+    /// order) in the sample queue, each scaling that mode's gains as forces enter
+    /// ([`crate::radiation`]). Zero modes: no radiation model (every mode radiates alike).
+    /// See [`CueSender::radiation`].
+    Radiation {
+        /// Source index.
+        source: u32,
+        /// Factors in the sample queue.
         modes: u32,
     },
 }
@@ -286,6 +299,29 @@ impl CueSender {
         })
     }
 
+    /// Gives `source` per-mode radiation factors (one per mode; empty: none), as
+    /// [`crate::radiation::Radiator::update`] computes them. False (dropped) when a queue is
+    /// full.
+    pub fn radiation(&mut self, source: usize, factors: &[f32]) -> bool {
+        if self.cues.slots() == 0 || self.samples.slots() < factors.len() {
+            AudioStats::bump(&self.stats.dropped);
+            return false;
+        }
+        match self.samples.write_chunk_uninit(factors.len()) {
+            Ok(chunk) => {
+                chunk.fill_from_iter(factors.iter().copied());
+            }
+            Err(_) => {
+                AudioStats::bump(&self.stats.dropped);
+                return false;
+            }
+        }
+        self.send(Cue::Radiation {
+            source: source as u32,
+            modes: factors.len() as u32,
+        })
+    }
+
     /// Samples the backend has rendered (its clock).
     pub fn rendered(&self) -> u64 {
         AudioStats::get(&self.stats.rendered)
@@ -310,6 +346,8 @@ pub struct SceneAudio {
     /// Per source, each mode's air absorption, nepers per metre (capacity: a voice's modes).
     air_np: Vec<Vec<f32>>,
     air: Option<Air>,
+    /// Per source, each mode's radiation factor (capacity: a voice's modes; empty: none).
+    radiation: Vec<Vec<f32>>,
     modes: Vec<usize>,
     gains: Vec<f64>,
     players: Vec<Option<GrainPlayer>>,
@@ -377,6 +415,7 @@ pub fn scene_audio(
         .unwrap_or(0)
         .max(1);
     let mut players = Vec::with_capacity(sources.len());
+    let mut radiation = Vec::with_capacity(sources.len());
     let mut positions = Vec::with_capacity(sources.len());
     for (i, s) in sources.into_iter().enumerate() {
         let m = s.modes.len();
@@ -408,6 +447,15 @@ pub fn scene_audio(
                 .map(|&(f, _)| air_nepers_per_m(params.air, f)),
         );
         air_np.push(np);
+        if !s.radiation.is_empty() && s.radiation.len() != m {
+            return Err(SynthError::Parameter(format!(
+                "source {i}: {} radiation factors for {m} modes",
+                s.radiation.len()
+            )));
+        }
+        let mut rad = Vec::with_capacity(modes_cap);
+        rad.extend(s.radiation.iter().map(|&f| sane_factor(f)));
+        radiation.push(rad);
         modes.push(m);
         tables.push(s.gains);
         players.push(s.grains);
@@ -448,6 +496,7 @@ pub fn scene_audio(
             tables,
             air_np,
             air: params.air,
+            radiation,
             modes,
             gains,
             players,
@@ -589,6 +638,11 @@ impl SceneAudio {
                                 *g *= (-f64::from(a) * r).exp();
                             }
                         }
+                        if !self.radiation[i].is_empty() {
+                            for (g, &f) in self.gains[..m].iter_mut().zip(&self.radiation[i]) {
+                                *g *= f64::from(f);
+                            }
+                        }
                         self.engine.set_gains(id, &self.gains[..m]);
                         let (a, b) = chunk.as_slices();
                         let d = (delay as usize).saturating_sub(late);
@@ -643,7 +697,27 @@ impl SceneAudio {
                             self.tables[i].push(g);
                         }
                         self.modes[i] = m;
+                        // New modes: the old factors belong to other modes.
+                        self.radiation[i].clear();
                         self.engine.reconfigure(id, &self.bank)
+                    }
+                    _ => false,
+                };
+                chunk.commit_all();
+                ok
+            }
+            Cue::Radiation { source, modes } => {
+                let m = modes as usize;
+                let Ok(chunk) = self.samples.read_chunk(m) else {
+                    return false;
+                };
+                let i = source as usize;
+                let ok = match self.radiation.get_mut(i) {
+                    Some(r) if (m == 0 || m == self.modes[i]) && m <= r.capacity() => {
+                        let (a, b) = chunk.as_slices();
+                        r.clear();
+                        r.extend(a.iter().chain(b).map(|&f| sane_factor(f)));
+                        true
                     }
                     _ => false,
                 };
@@ -750,4 +824,14 @@ fn air_nepers_per_m(air: Option<Air>, freq_hz: f64) -> f32 {
     air.map_or(0.0, |a| {
         (a.attenuation_db_per_m(freq_hz) * std::f64::consts::LN_10 / 20.0) as f32
     })
+}
+
+/// A radiation factor as the audio side uses it: non-finite or negative factors (which no
+/// transfer gives) silence the mode rather than poison the bank.
+fn sane_factor(f: f32) -> f32 {
+    if f.is_finite() && f >= 0.0 {
+        f
+    } else {
+        0.0
+    }
 }

@@ -188,6 +188,7 @@ fn spare_scene(
         gains: vec![0.0; capacity],
         grains: None,
         position: [1.0, 0.0, 0.0],
+        radiation: Vec::new(),
     };
     scene_audio(&params, vec![spare]).unwrap()
 }

@@ -84,7 +84,7 @@ fn geometry(b: &BodyFile, base_dir: &Path) -> Result<(SurfaceMesh, Shape)> {
 
 /// Modal models solved during one scene build, by content hash: identical bodies are solved
 /// once even without a cache directory.
-type Solved = std::collections::HashMap<u64, std::sync::Arc<ModalModel>>;
+type Solved = std::collections::HashMap<u64, (std::sync::Arc<ModalModel>, Option<PathBuf>)>;
 
 fn modal_model(
     mesh: &SurfaceMesh,
@@ -92,7 +92,7 @@ fn modal_model(
     b: &BodyFile,
     cache_dir: Option<&Path>,
     solved: &mut Solved,
-) -> Result<std::sync::Arc<ModalModel>> {
+) -> Result<(std::sync::Arc<ModalModel>, Option<PathBuf>)> {
     let mut hash = Fnv1a::new();
     for v in &mesh.vertices {
         for c in v {
@@ -114,15 +114,15 @@ fn modal_model(
     hash.write(&(b.modes as u64).to_le_bytes());
     hash.write(&(b.resolution as u64).to_le_bytes());
     let h = hash.finish();
-    if let Some(m) = solved.get(&h) {
-        return Ok(std::sync::Arc::clone(m));
+    if let Some((m, f)) = solved.get(&h) {
+        return Ok((std::sync::Arc::clone(m), f.clone()));
     }
     let file = cache_dir.map(|d| d.join(format!("{h:016x}.rmodal")));
     if let Some(f) = &file {
         if let Ok(m) = resound_io::model_file::load(f) {
             let m = std::sync::Arc::new(m);
-            solved.insert(h, std::sync::Arc::clone(&m));
-            return Ok(m);
+            solved.insert(h, (std::sync::Arc::clone(&m), file.clone()));
+            return Ok((m, file));
         }
     }
     let params = ModalParams {
@@ -145,16 +145,61 @@ fn modal_model(
         let _ = resound_io::model_file::save(f, &model);
     }
     let model = std::sync::Arc::new(model);
-    solved.insert(h, std::sync::Arc::clone(&model));
-    Ok(model)
+    solved.insert(h, (std::sync::Arc::clone(&model), file.clone()));
+    Ok((model, file))
+}
+
+/// Acoustic transfers fitted or loaded during one scene build, by modal model.
+type Transfers = std::collections::HashMap<usize, std::sync::Arc<resound_core::AcousticTransfer>>;
+
+/// The acoustic transfer of a scene body's `model`: the model's own, else fitted (default
+/// settings) and stored with the model in the cache, so the next build loads it.
+fn body_transfer(
+    model: &std::sync::Arc<ModalModel>,
+    cache_file: Option<&Path>,
+    transfers: &mut Transfers,
+    progress: &dyn Fn(&str),
+) -> Result<std::sync::Arc<resound_core::AcousticTransfer>> {
+    let key = std::sync::Arc::as_ptr(model) as usize;
+    if let Some(t) = transfers.get(&key) {
+        return Ok(std::sync::Arc::clone(t));
+    }
+    let t = match &model.transfer {
+        Some(t) => std::sync::Arc::new(t.clone()),
+        None => {
+            progress("fitting the acoustic transfer");
+            let mut m = (**model).clone();
+            let info = crate::radiation::add_transfer(
+                &mut m,
+                &resound_modal::radiation::TransferParams::default(),
+            )?;
+            if info.poorly_fitted > 0 {
+                progress(&format!(
+                    "warning: the acoustic transfer fits {} modes poorly (misfit > 0.9): their \
+                     levels are uncertain",
+                    info.poorly_fitted
+                ));
+            }
+            if let Some(f) = cache_file {
+                // A cache that cannot be written only costs time later.
+                let _ = resound_io::model_file::save(f, &m);
+            }
+            std::sync::Arc::new(m.transfer.take().expect("just fitted"))
+        }
+    };
+    transfers.insert(key, std::sync::Arc::clone(&t));
+    Ok(t)
 }
 
 /// The sound model of a body of `material` with modal `model` (solved at the body's density).
+///
+/// With `transfer` (the model's acoustic transfer), the modes radiate by it in scenes.
 pub fn body_sound(
     model: &ModalModel,
     material: &SoundMaterial,
     poisson: f64,
     sample_rate_hz: f64,
+    transfer: Option<std::sync::Arc<resound_core::AcousticTransfer>>,
 ) -> BodySound {
     let m = model.n_modes();
     let vertex_gains = model.vertex_gains();
@@ -188,6 +233,10 @@ pub fn body_sound(
             poisson_ratio: poisson,
         },
         contact_loss: resound_physics::DEFAULT_CONTACT_LOSS,
+        radiation: transfer.map(|transfer| resound_physics::BodyRadiation {
+            transfer,
+            modes: keep,
+        }),
     }
 }
 
@@ -227,6 +276,7 @@ fn stats_sound(
             poisson_ratio: b.poisson,
         },
         contact_loss: resound_physics::DEFAULT_CONTACT_LOSS,
+        radiation: None,
     })
 }
 
@@ -273,6 +323,7 @@ pub fn build_scene(
         )));
     }
     let mut solved = Solved::new();
+    let mut transfers = Transfers::new();
     let mut bodies = Vec::with_capacity(scene.body.len());
     let mut loaded: std::collections::HashMap<
         std::path::PathBuf,
@@ -329,12 +380,28 @@ pub fn build_scene(
                 poisson_ratio: b.poisson,
                 density: b.density,
             };
-            let model = modal_model(&mesh, &elastic, b, opts.cache_dir.as_deref(), &mut solved)
-                .map_err(fail)?;
-            Some(body_sound(&model, &material, b.poisson, fs))
+            let (model, file) =
+                modal_model(&mesh, &elastic, b, opts.cache_dir.as_deref(), &mut solved)
+                    .map_err(fail)?;
+            let transfer = if scene.radiation {
+                Some(
+                    body_transfer(&model, file.as_deref(), &mut transfers, opts.progress)
+                        .map_err(fail)?,
+                )
+            } else {
+                None
+            };
+            Some(body_sound(&model, &material, b.poisson, fs, transfer))
         } else {
             None
         };
+        if scene.radiation && sound.as_ref().is_some_and(|s| s.radiation.is_none()) {
+            (opts.progress)(&format!(
+                "warning: body {:?} sounds from statistics and has no acoustic transfer: its \
+                 modes radiate alike (1/r)",
+                b.name
+            ));
+        }
         let mut sound = sound;
         if let (Some(s), Some(eta)) = (sound.as_mut(), b.contact_damping) {
             s.contact_loss = eta;

@@ -146,3 +146,167 @@ fn mirrored_microphones_hear_each_mode_of_a_symmetric_bar_alike() {
         inside.info.warnings
     );
 }
+
+/// A scene of one fixed steel bar, turned 90° about y and struck once by a silent ball in zero
+/// gravity, rendered with and without `radiation = true`: the physics and forces are the
+/// same, so each mode's amplitude at the listener (fitted by least squares with the mode's
+/// known frequency and decay) must change by exactly that mode's radiation factor at the
+/// listener *seen from the bar* (`AcousticTransfer::factor`, the single-mode path, at the
+/// listener turned into the body frame). The factors must differ from mode to mode and from
+/// the un-turned listener's, so a constant scale or a wrong frame fails.
+#[test]
+fn a_scene_body_radiates_each_mode_by_its_transfer_in_its_own_frame() {
+    let scene_text = |radiation: bool| {
+        format!(
+            r#"
+duration = 0.6
+sample_rate = 48000
+stereo = false
+radiation = {radiation}
+gravity = [0.0, 0.0, 0.0]
+[listener]
+position = [0.25, 0.35, 0.15]
+[air]
+absorption = false
+[[body]]
+name = "bar"
+fixed = true
+shape = {{ box = [0.2, 0.03, 0.02] }}
+material = "preset:steel"
+density = 7850
+rotation = [0.0, 90.0, 0.0]
+modes = 8
+contact_damping = 0.0   # a fixed body is otherwise damped by its mounting
+[[body]]
+name = "ball"
+shape = {{ sphere = 0.015 }}
+material = "preset:steel"
+density = 7850
+position = [0.0, 0.05, 0.03]
+velocity = [0.0, -3.0, 0.0]
+restitution = 0.8
+sound = false
+"#
+        )
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let quiet = |_: &str| {};
+    let render = |radiation: bool| {
+        let scene = resound::io::scene::parse_scene(&scene_text(radiation), "bar.toml").unwrap();
+        let (bodies, params) = resound::scene::build_scene(
+            &scene,
+            &resound::scene::BuildOptions {
+                base_dir: dir.path(),
+                library: None,
+                cache_dir: None,
+                progress: &quiet,
+            },
+        )
+        .unwrap();
+        let out = resound::physics::simulate(&bodies, &params, &|_| {}).unwrap();
+        (bodies, out)
+    };
+    let (plain_bodies, plain) = render(false);
+    let (bodies, heard) = render(true);
+    let impacts: Vec<f64> = heard
+        .events
+        .iter()
+        .filter(|e| matches!(e.kind, resound::physics::ContactKind::Impact))
+        .map(|e| e.time_s)
+        .collect();
+    assert_eq!(impacts.len(), 1, "one impact, got {impacts:?}");
+    assert_eq!(plain.events.len(), heard.events.len());
+    let sound = bodies[0].sound.as_ref().unwrap();
+    assert!(plain_bodies[0].sound.as_ref().unwrap().radiation.is_none());
+    let rad = sound.radiation.as_ref().expect("the bar radiates");
+    let modes = &sound.modes;
+
+    // Each mode's amplitude from 20 ms after the impact (pulse and propagation over), 0.3 s.
+    let fs = 48_000.0;
+    let start = ((impacts[0] + 0.02) * fs) as usize;
+    let n = (0.3 * fs) as usize;
+    let amplitudes = |x: &[f32]| -> Vec<f64> {
+        let cols = 2 * modes.len();
+        let mut ata = vec![vec![0.0f64; cols + 1]; cols];
+        let mut row = vec![0.0f64; cols];
+        for k in 0..n {
+            let t = k as f64 / fs;
+            for (j, &(f, d)) in modes.iter().enumerate() {
+                let (s, c) = (std::f64::consts::TAU * f * t).sin_cos();
+                let e = (-d * t).exp();
+                row[2 * j] = e * c;
+                row[2 * j + 1] = e * s;
+            }
+            let y = f64::from(x[start + k]);
+            for a in 0..cols {
+                for b in 0..cols {
+                    ata[a][b] += row[a] * row[b];
+                }
+                ata[a][cols] += row[a] * y;
+            }
+        }
+        // Gaussian elimination with partial pivoting.
+        for c in 0..cols {
+            let p = (c..cols)
+                .max_by(|&a, &b| ata[a][c].abs().total_cmp(&ata[b][c].abs()))
+                .unwrap();
+            ata.swap(c, p);
+            for r in 0..cols {
+                if r != c {
+                    let q = ata[r][c] / ata[c][c];
+                    for k in c..=cols {
+                        ata[r][k] -= q * ata[c][k];
+                    }
+                }
+            }
+        }
+        (0..modes.len())
+            .map(|j| {
+                let a = ata[2 * j][cols] / ata[2 * j][2 * j];
+                let b = ata[2 * j + 1][cols] / ata[2 * j + 1][2 * j + 1];
+                a.hypot(b)
+            })
+            .collect()
+    };
+    let a_plain = amplitudes(&plain.channels[0]);
+    let a_heard = amplitudes(&heard.channels[0]);
+
+    // The listener in the bar's frame: R⁻¹ (L − p), R a 90° turn about y.
+    let l = [0.25, 0.35, 0.15];
+    let (s, c) = std::f64::consts::FRAC_PI_2.sin_cos();
+    let local = [c * l[0] - s * l[2], l[1], s * l[0] + c * l[2]];
+    let mut scratch = FieldScratch::default();
+    let top = a_plain.iter().copied().fold(0.0, f64::max);
+    let mut compared = 0;
+    let (mut lo, mut hi, mut frame_sensitive) = (f64::MAX, 0.0f64, false);
+    let mut worst = 0.0f64;
+    for (i, &(f, _)) in modes.iter().enumerate() {
+        let j = rad.modes[i];
+        let want = rad.transfer.factor(j, f, local, &mut scratch).unwrap();
+        let unturned = rad.transfer.factor(j, f, l, &mut scratch).unwrap();
+        let got = a_heard[i] / a_plain[i];
+        eprintln!(
+            "mode {i}: {f:8.1} Hz  amplitude {:.3e}  factor {want:.4e}  measured {got:.4e}  \
+             (un-turned listener {unturned:.4e})",
+            a_plain[i]
+        );
+        if a_plain[i] < 1e-4 * top {
+            continue;
+        }
+        worst = worst.max((got / want - 1.0).abs());
+        lo = lo.min(want);
+        hi = hi.max(want);
+        frame_sensitive |= (unturned / want - 1.0).abs() > 0.1;
+        compared += 1;
+    }
+    assert!(compared >= 6, "{compared} modes loud enough to compare");
+    assert!(
+        worst < 0.02,
+        "measured factors off the transfer's by up to {worst:.3}"
+    );
+    assert!(
+        hi / lo > 2.0,
+        "factors {lo:.3e}..{hi:.3e}: too alike to tell"
+    );
+    assert!(frame_sensitive, "the body's turn changes no factor");
+}
