@@ -77,6 +77,11 @@ pub struct EstimateArgs {
     /// Replace a library entry of the same name (`--name`).
     #[arg(long)]
     pub force: bool,
+    /// Where the microphone was, x,y,z in metres (model coordinates): the forward model weights
+    /// each mode by what it radiates there (the model's acoustic transfer: `resound modal
+    /// --transfer`, or fitted now), so σ and the levels are those `synth --mic` renders.
+    #[arg(long, allow_hyphen_values = true)]
+    pub mic: Option<String>,
 }
 
 /// A modal model from a saved `.rmodal` or a mesh solved with `reference_material`, with a
@@ -139,11 +144,17 @@ struct Output<'a> {
     /// The recordings' own estimates' relative spread (several recordings).
     #[serde(skip_serializing_if = "Option::is_none")]
     spread: Option<resound::material::TakeSpread>,
+    /// The microphone the forward model radiated to (`--mic`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mic: Option<[f64; 3]>,
+    /// Estimates run (more than one with `--mic`: the radiation follows γ).
+    passes: usize,
 }
 
 /// Runs `estimate`.
 pub fn run(a: EstimateArgs) -> Result<()> {
     let query = parse_vec3(&a.hit)?;
+    let mic = a.mic.as_deref().map(parse_vec3).transpose()?;
     let outs: Vec<&Path> = a
         .output
         .iter()
@@ -185,7 +196,30 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     }
     let analysis = &analysed[0].analysis;
     let analysis_strike = (analysis.strike + 1, analysis.strike_reason.clone());
-    let model = load_model(&a.mesh, a.scale, a.modes, &a.reference_material)?;
+    let mut model = load_model(&a.mesh, a.scale, a.modes, &a.reference_material)?;
+    if mic.is_some() && model.transfer.is_none() {
+        // Fitted once here, for the estimate and its picture.
+        let pb = spinner("acoustic transfer");
+        let t1 = std::time::Instant::now();
+        let fitted = resound::radiation::add_transfer(
+            &mut model,
+            &resound::modal::TransferParams::default(),
+        );
+        pb.finish_and_clear();
+        let info = fitted?;
+        eprintln!(
+            "note: fitted the acoustic transfer of {} modes in {:.1} s (store it with `resound \
+             modal --transfer -o model.rmodal` to skip this)",
+            model.n_modes(),
+            t1.elapsed().as_secs_f64()
+        );
+        if info.poorly_fitted > 0 {
+            eprintln!(
+                "warning: the acoustic transfer fits {} modes poorly (misfit > 0.9)",
+                info.poorly_fitted
+            );
+        }
+    }
     let hit = snap(&model, query)?;
     let takes: Vec<TakeInput<'_>> = analysed
         .iter()
@@ -206,6 +240,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             .join("; "),
         object_name: a.mesh.display().to_string(),
         allow_implausible: a.allow_implausible,
+        mic_m: mic,
         ..Default::default()
     };
     let unit = if takes.len() == 1 { "starts" } else { "fits" };
@@ -257,12 +292,21 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             warnings: &info.warnings,
             takes: &info.takes,
             spread: info.spread,
+            mic: info.mic,
+            passes: info.passes,
         });
     }
     println!(
         "{name}: alpha {:.4e} 1/s, beta {:.4e} s, gamma {:.4e} m²/s², sigma {:.4e}; metric {:.4e} ({} starts, {} evaluations, {:.1} s)",
         p.alpha, p.beta, p.gamma, p.sigma, info.metric, info.starts, info.evaluations, info.elapsed_s
     );
+    if let Some(m) = info.mic {
+        println!(
+            "heard at the microphone {m:?} m (each mode's radiation there; {} estimate{} until γ settled)",
+            info.passes,
+            if info.passes == 1 { "" } else { "s" }
+        );
+    }
     let f = &info.fit;
     let pm = |s: Option<f64>, unit: &str| {
         s.map_or("unknown".to_string(), |s| format!("± {s:.2e} {unit}"))

@@ -2178,3 +2178,94 @@ modes = 8
         assert!(!d.join("b.wav").exists());
     }
 }
+
+/// Issue 19: `estimate --mic` puts the microphone's radiation into the forward model. A steel
+/// bar's strike as a microphone hears it (`synth --mic`) is estimated back with the same
+/// microphone: the JSON reports it, γ is steel's, and the material file it writes is read by
+/// `synth --mic`. A malformed `--mic` fails before any work.
+#[test]
+fn an_estimate_hears_the_strike_at_its_microphone() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "bar",
+            "--size",
+            "0.2,0.04,0.02",
+            "-o",
+            "bar.obj",
+        ],
+        d,
+    ));
+    ok(&resound(
+        &[
+            "modal",
+            "bar.obj",
+            "-m",
+            "steel",
+            "--modes",
+            "12",
+            "--transfer",
+            "-o",
+            "bar.rmodal",
+        ],
+        d,
+    ));
+    let synth = |material: &str, out: &str| {
+        ok(&resound(
+            &[
+                "synth",
+                "--material",
+                material,
+                "--mesh",
+                "bar.rmodal",
+                "--hit",
+                "0.07,0.02,0.01",
+                "--mic",
+                "0.05,0.35,0.25",
+                "--no-residual",
+                "--duration",
+                "1",
+                "-o",
+                out,
+            ],
+            d,
+        ))
+    };
+    synth("steel", "heard.wav");
+    let estimate = |mic: &str| {
+        resound(
+            &[
+                "estimate",
+                "heard.wav",
+                "--mesh",
+                "bar.rmodal",
+                "--hit",
+                "0.07,0.02,0.01",
+                "--mic",
+                mic,
+                "--no-residual",
+                "--json",
+                "-o",
+                "est.json",
+            ],
+            d,
+        )
+    };
+    let v: Value = serde_json::from_str(&ok(&estimate("0.05,0.35,0.25"))).unwrap();
+    assert_eq!(v["mic"], serde_json::json!([0.05, 0.35, 0.25]));
+    assert!(v["passes"].as_u64().unwrap() >= 1, "{v}");
+    let steel = resound::core::Material::preset("steel").unwrap();
+    let gamma = steel.youngs_modulus / steel.density;
+    let g = v["gamma"].as_f64().unwrap();
+    assert!(
+        (g / gamma - 1.0).abs() < 0.01,
+        "γ {g:.4e}, steel {gamma:.4e}"
+    );
+    synth("est.json", "again.wav");
+    assert!(d.join("again.wav").is_file());
+    fails_with(&estimate("0.05,0.35"), "x,y,z");
+    fails_with(&estimate("nan,0,0"), "x,y,z");
+}

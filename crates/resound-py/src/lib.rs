@@ -354,7 +354,7 @@ fn save_material(material_json: &str, library: Option<PathBuf>, replace: bool) -
 /// Estimates a material from a recording (file, or float64 samples with `sample_rate`) of
 /// `model` struck at `hit`: (material JSON, report JSON).
 #[pyfunction]
-#[pyo3(signature = (model, hit, path=None, samples=None, sample_rate=None, channel=None, strike=None, name="estimated", residual=true, allow_implausible=false))]
+#[pyo3(signature = (model, hit, path=None, samples=None, sample_rate=None, channel=None, strike=None, name="estimated", residual=true, allow_implausible=false, mic=None))]
 fn estimate_material(
     py: Python<'_>,
     model: &ModalModel,
@@ -367,6 +367,7 @@ fn estimate_material(
     name: &str,
     residual: bool,
     allow_implausible: bool,
+    mic: Option<[f64; 3]>,
 ) -> PyResult<(String, String)> {
     let ap = analyze_params(strike, 64, 60.0)?;
     let h = model.inner.hit(hit).map_err(err)?;
@@ -374,6 +375,7 @@ fn estimate_material(
         name: name.to_string(),
         residual,
         allow_implausible,
+        mic_m: mic,
         recording_name: path
             .as_ref()
             .map_or("<array>".into(), |p| p.display().to_string()),
@@ -429,7 +431,7 @@ fn strike_params(
 
 /// Renders a strike of an object of `material` at `hit`: (samples float32, info JSON).
 #[pyfunction]
-#[pyo3(signature = (material, model, hit, speed_m_s=1.0, duration_s=1.0, sample_rate=48000, residual=true, impactor_mass_kg=None, impactor_radius_m=0.005, library=None))]
+#[pyo3(signature = (material, model, hit, speed_m_s=1.0, duration_s=1.0, sample_rate=48000, residual=true, impactor_mass_kg=None, impactor_radius_m=0.005, library=None, mic=None))]
 fn render_strike<'py>(
     py: Python<'py>,
     material: &str,
@@ -442,10 +444,11 @@ fn render_strike<'py>(
     impactor_mass_kg: Option<f64>,
     impactor_radius_m: f64,
     library: Option<PathBuf>,
+    mic: Option<[f64; 3]>,
 ) -> PyResult<(Bound<'py, PyArray1<f32>>, String)> {
     let mat = crate::material(material, library.as_deref())?;
     let h = model.inner.hit(hit).map_err(err)?;
-    let p = strike_params(
+    let mut p = strike_params(
         speed_m_s,
         duration_s,
         sample_rate,
@@ -453,6 +456,7 @@ fn render_strike<'py>(
         impactor_mass_kg,
         impactor_radius_m,
     );
+    p.mic_m = mic;
     let m = &model.inner;
     let s = py
         .detach(|| {

@@ -221,6 +221,11 @@ pub struct EstimateMaterialParams {
     /// Keep an estimate whose parameters are not credible (β at the optimizer's floor, γ outside
     /// the range of solids) as a warning instead of an error.
     pub allow_implausible: bool,
+    /// Where the microphone was (model coordinates, m; every take's): the forward model then
+    /// weights each mode's gain by what it radiates there (the model's acoustic transfer,
+    /// fitted on the spot when it holds none), as `synth --mic` renders it. `None`: every mode
+    /// reaches the microphone alike (σ absorbs the average radiation).
+    pub mic_m: Option<[f64; 3]>,
 }
 
 /// Smallest β the optimizer can express, s (it searches ln β; a start at β = 0 begins here).
@@ -238,6 +243,7 @@ impl Default for EstimateMaterialParams {
             recording_name: String::new(),
             object_name: String::new(),
             allow_implausible: false,
+            mic_m: None,
         }
     }
 }
@@ -267,6 +273,43 @@ pub struct EstimateInfo {
     pub takes: Vec<TakeReport>,
     /// How much the recordings' own estimates differ (two or more recordings).
     pub spread: Option<TakeSpread>,
+    /// The microphone the forward model radiated to, m (estimates with `mic_m`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mic: Option<[f64; 3]>,
+    /// Estimates run: with a microphone the radiation factors depend on where γ puts the
+    /// modes, so the estimate is rerun at its γ until the modes move by less than
+    /// [`MIC_SETTLE_OCTAVES`] (at most [`MIC_PASSES`] runs); 1 without.
+    pub passes: usize,
+    /// Time spent fitting acoustic transfers the models did not hold, s.
+    pub transfer_fit_s: f64,
+}
+
+/// With a microphone, the estimate is rerun while its γ moves the modes by more than this
+/// (octaves): an eighth of the transfer grid's third-octave spacing.
+pub const MIC_SETTLE_OCTAVES: f64 = 1.0 / 24.0;
+/// Most estimates run with a microphone.
+pub const MIC_PASSES: usize = 4;
+
+/// [`modal_side`] as a microphone at `mic` hears it: each mode's gain times its radiation
+/// factor there ([`crate::radiation::mic_factors`]) with the modes where a material of
+/// stiffness ratio `gamma` puts them, and the warnings the factors came with.
+///
+/// # Errors
+/// A transfer that does not belong to `model`; a non-finite microphone position.
+pub fn heard_side(
+    model: &ModalModel,
+    hit: &Hit,
+    transfer: &resound_core::AcousticTransfer,
+    mic: [f64; 3],
+    gamma: f64,
+) -> Result<(ModalSide, Vec<String>)> {
+    let freqs = crate::radiation::freqs_in(model, gamma);
+    let (f, warnings) = crate::radiation::mic_factors(transfer, &freqs, mic)?;
+    let mut side = modal_side(model, hit);
+    for (g, f) in side.gains0.iter_mut().zip(&f) {
+        *g *= f;
+    }
+    Ok((side, warnings))
 }
 
 /// One recording of a combined estimate ([`estimate_material_from`]).
@@ -398,32 +441,108 @@ pub fn estimate_material_from(
     let t0 = std::time::Instant::now();
     let (analysis, model, hit) = (first.analysis, first.model, first.hit);
     let fs = analysis.sample_rate_hz;
-    let side = modal_side(model, hit);
     let seg = &analysis.segment;
-    let sides: Vec<ModalSide> = takes.iter().map(|t| modal_side(t.model, t.hit)).collect();
-    let (est, joint) = if takes.len() == 1 {
-        let e = estimate(&side, seg, fs, &analysis.modes, &params.estimate, tick)?;
-        (e, None)
-    } else {
-        let inputs: Vec<resound_estimate::Take<'_>> = takes
+    // With a microphone: each distinct model's acoustic transfer, fitted once if it has none.
+    let mut transfer_fit_s = 0.0;
+    let mut transfers: Vec<(
+        *const ModalModel,
+        std::borrow::Cow<'_, resound_core::AcousticTransfer>,
+    )> = Vec::new();
+    if params.mic_m.is_some() {
+        for t in takes {
+            if transfers.iter().any(|(m, _)| std::ptr::eq(*m, t.model)) {
+                continue;
+            }
+            let t1 = std::time::Instant::now();
+            let (tr, fitted) = crate::radiation::transfer_of(t.model)?;
+            if fitted.is_some() {
+                transfer_fit_s += t1.elapsed().as_secs_f64();
+            }
+            transfers.push((t.model as *const ModalModel, tr));
+        }
+    }
+    let transfer_for = |m: &ModalModel| {
+        transfers
             .iter()
-            .zip(&sides)
-            .map(|(t, side)| resound_estimate::Take {
-                side,
-                signal: &t.analysis.segment,
-                sample_rate_hz: t.analysis.sample_rate_hz,
-                reference_modes: &t.analysis.modes,
-            })
-            .collect();
-        let j = resound_estimate::estimate_joint(&inputs, &params.estimate, tick)?;
-        let e = resound_estimate::Estimate {
-            params: j.params,
-            metric: j.metric,
-            starts: j.starts,
-            evaluations: j.evaluations,
-        };
-        (e, Some(j))
+            .find(|(p, _)| std::ptr::eq(*p, m))
+            .map(|(_, t)| t.as_ref())
     };
+    let mut mic_warnings = Vec::new();
+    // The sides heard at the microphone when γ puts the modes at `gamma` (plain sides without).
+    let sides_at = |gamma: f64, warnings: &mut Vec<String>| -> Result<Vec<ModalSide>> {
+        takes
+            .iter()
+            .map(|t| match (params.mic_m, transfer_for(t.model)) {
+                (Some(mic), Some(tr)) => {
+                    let (side, w) = heard_side(t.model, t.hit, tr, mic, gamma)?;
+                    for w in w {
+                        if !warnings.contains(&w) {
+                            warnings.push(w);
+                        }
+                    }
+                    Ok(side)
+                }
+                _ => Ok(modal_side(t.model, t.hit)),
+            })
+            .collect()
+    };
+    let run = |sides: &[ModalSide]| -> Result<(
+        resound_estimate::Estimate,
+        Option<resound_estimate::JointEstimate>,
+    )> {
+        if takes.len() == 1 {
+            let e = estimate(&sides[0], seg, fs, &analysis.modes, &params.estimate, tick)?;
+            Ok((e, None))
+        } else {
+            let inputs: Vec<resound_estimate::Take<'_>> = takes
+                .iter()
+                .zip(sides)
+                .map(|(t, side)| resound_estimate::Take {
+                    side,
+                    signal: &t.analysis.segment,
+                    sample_rate_hz: t.analysis.sample_rate_hz,
+                    reference_modes: &t.analysis.modes,
+                })
+                .collect();
+            let j = resound_estimate::estimate_joint(&inputs, &params.estimate, tick)?;
+            let e = resound_estimate::Estimate {
+                params: j.params,
+                metric: j.metric,
+                starts: j.starts,
+                evaluations: j.evaluations,
+            };
+            Ok((e, Some(j)))
+        }
+    };
+    // Without a microphone one run. With one, the factors are taken where the model's own
+    // material puts the modes, then where each estimate's γ does, until γ settles.
+    let mut gamma = model.material.youngs_modulus / model.material.density;
+    let mut passes = 0;
+    let (sides, est, joint) = loop {
+        let sides = sides_at(gamma, &mut Vec::new())?;
+        let (est, joint) = run(&sides)?;
+        passes += 1;
+        let Some(_) = params.mic_m else {
+            break (sides, est, joint);
+        };
+        if !est.params.gamma.is_finite() {
+            break (sides, est, joint);
+        }
+        let moved_octaves = 0.5 * (est.params.gamma / gamma).log2().abs();
+        if moved_octaves < MIC_SETTLE_OCTAVES || passes >= MIC_PASSES {
+            if moved_octaves >= MIC_SETTLE_OCTAVES {
+                mic_warnings.push(format!(
+                    "the radiation factors did not settle in {passes} estimates: the last moved \
+                     the modes by {moved_octaves:.3} octaves"
+                ));
+            }
+            // The sides the reports use: heard where the final γ puts the modes.
+            let sides = sides_at(est.params.gamma, &mut mic_warnings)?;
+            break (sides, est, joint);
+        }
+        gamma = est.params.gamma;
+    };
+    let side = sides[0].clone();
     if !(est.metric.is_finite() && est.metric > 0.0) {
         if est.metric == 0.0 {
             return Err(resound_estimate::EstimateError::Uninformative.into());
@@ -467,6 +586,7 @@ pub fn estimate_material_from(
         r
     });
     let mut warnings = implausible;
+    warnings.extend(mic_warnings);
     if let Some(j) = &joint {
         for &k in &j.left_out {
             warnings.push(format!(
@@ -600,12 +720,17 @@ pub fn estimate_material_from(
         warnings,
         takes: take_reports,
         spread,
+        mic: params.mic_m,
+        passes,
+        transfer_fit_s,
     };
     Ok((material, info))
 }
 
 /// The picture of an estimate: features against the Rayleigh curve, and the two loudness
 /// images the metric compares (estimated modes within 60 dB of the recording's strongest).
+/// An estimate with a microphone is drawn as heard there (the model's transfer, fitted again
+/// when the model holds none).
 ///
 /// # Errors
 /// Drawing or writing fails.
@@ -619,7 +744,13 @@ pub fn estimate_plot(
     info: &EstimateInfo,
     params: &EstimateParams,
 ) -> Result<()> {
-    let side = modal_side(model, hit);
+    let side = match info.mic {
+        Some(mic) => {
+            let (t, _) = crate::radiation::transfer_of(model)?;
+            heard_side(model, hit, &t, mic, info.params.gamma)?.0
+        }
+        None => modal_side(model, hit),
+    };
     let objective = Objective::new(
         &side,
         &analysis.segment,

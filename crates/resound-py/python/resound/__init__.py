@@ -212,22 +212,26 @@ def estimate_material(audio: Union[PathLike, np.ndarray], model: ModalModel,
                       hit: Sequence[float], *, sample_rate: Optional[float] = None,
                       channel: Optional[int] = None, strike: Optional[int] = None,
                       name: str = "estimated", residual: bool = True,
-                      allow_implausible: bool = False) -> Tuple[Material, Dict[str, Any]]:
+                      allow_implausible: bool = False,
+                      mic: Optional[Sequence[float]] = None) -> Tuple[Material, Dict[str, Any]]:
     """Estimates the material of ``model`` struck at ``hit`` (m) from a recording of it
     (Ren 2013 §5): the material and the fit report (paired modes, standard errors, warnings).
+    ``mic``: where the microphone was (model coordinates, m); each mode is then weighted by
+    what it radiates there (the model's acoustic transfer), as ``render_strike(mic=)`` does.
     """
     h = [float(c) for c in hit]
+    m3 = None if mic is None else [float(c) for c in mic]
     if isinstance(audio, (str, os.PathLike)):
         if sample_rate is not None:
             raise TypeError("sample_rate is for arrays; a file knows its own")
         m, rep = _native.estimate_material(model, h, os.fspath(audio), None, None, channel,
-                                           strike, name, residual, allow_implausible)
+                                           strike, name, residual, allow_implausible, m3)
     else:
         if sample_rate is None:
             raise TypeError("an array needs sample_rate=")
         m, rep = _native.estimate_material(model, h, None, _mono(audio, channel),
                                            float(sample_rate), None, strike, name, residual,
-                                           allow_implausible)
+                                           allow_implausible, m3)
     return Material.from_document(json.loads(m), "estimated"), json.loads(rep)
 
 
@@ -235,13 +239,17 @@ def render_strike(material: MaterialLike, model: ModalModel, hit: Sequence[float
                   speed_m_s: float = 1.0, duration_s: float = 1.0, sample_rate: int = 48000,
                   residual: bool = True, impactor_mass_kg: Optional[float] = None,
                   impactor_radius_m: float = 0.005,
-                  library: Optional[PathLike] = None) -> np.ndarray:
+                  library: Optional[PathLike] = None,
+                  mic: Optional[Sequence[float]] = None) -> np.ndarray:
     """One strike of an object (``model``) of ``material`` at ``hit`` (m) by a steel sphere at
-    ``speed_m_s``: float32 samples at physical scale (1 m away; not normalized)."""
+    ``speed_m_s``: float32 samples at physical scale (1 m away; not normalized). ``mic``:
+    a microphone (model coordinates, m) that hears each mode as it radiates there (the model's
+    acoustic transfer, fitted on the spot when it holds none)."""
     x, _info = _native.render_strike(_material_spec(material), model,
                                      [float(c) for c in hit], speed_m_s, duration_s,
                                      sample_rate, residual, impactor_mass_kg,
-                                     impactor_radius_m, _opt_path(library))
+                                     impactor_radius_m, _opt_path(library),
+                                     None if mic is None else [float(c) for c in mic])
     return x
 
 

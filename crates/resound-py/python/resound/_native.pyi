@@ -126,12 +126,14 @@ def estimate_material(model: ModalModel, hit: Sequence[float], path: Optional[_P
                       sample_rate: Optional[float] = None, channel: Optional[int] = None,
                       strike: Optional[int] = None, name: str = "estimated",
                       residual: bool = True,
-                      allow_implausible: bool = False) -> Tuple[str, str]: ...
+                      allow_implausible: bool = False,
+                      mic: Optional[Sequence[float]] = None) -> Tuple[str, str]: ...
 def render_strike(material: str, model: ModalModel, hit: Sequence[float],
                   speed_m_s: float = 1.0, duration_s: float = 1.0, sample_rate: int = 48000,
                   residual: bool = True, impactor_mass_kg: Optional[float] = None,
                   impactor_radius_m: float = 0.005,
-                  library: Optional[_Path] = None) -> Tuple[npt.NDArray[np.float32], str]: ...
+                  library: Optional[_Path] = None,
+                  mic: Optional[Sequence[float]] = None) -> Tuple[npt.NDArray[np.float32], str]: ...
 def render_modes(modes: npt.NDArray[np.float64], duration_s: float = 1.0,
                  sample_rate: int = 48000) -> npt.NDArray[np.float32]: ...
 def render_impact(stats: ModeStatistics, seed: int = 0, speed_m_s: float = 1.0,
