@@ -238,6 +238,25 @@ impl CueSender {
         self.send(Cue::Step { start })
     }
 
+    /// Writes `n` samples of a cue that follows them, when there is room for both the samples
+    /// and the cue; false (counted as dropped, nothing written) otherwise.
+    fn write_samples(&mut self, n: usize, values: impl Iterator<Item = f32>) -> bool {
+        if self.cues.slots() == 0 || self.samples.slots() < n {
+            AudioStats::bump(&self.stats.dropped);
+            return false;
+        }
+        match self.samples.write_chunk_uninit(n) {
+            Ok(chunk) => {
+                chunk.fill_from_iter(values);
+                true
+            }
+            Err(_) => {
+                AudioStats::bump(&self.stats.dropped);
+                false
+            }
+        }
+    }
+
     /// Sends a force (its samples first, then its cue); false (dropped) when either queue is
     /// full.
     pub fn force(
@@ -248,18 +267,8 @@ impl CueSender {
         scale: f64,
         delay: usize,
     ) -> bool {
-        if self.cues.slots() == 0 || self.samples.slots() < force.len() {
-            AudioStats::bump(&self.stats.dropped);
+        if !self.write_samples(force.len(), force.iter().copied()) {
             return false;
-        }
-        match self.samples.write_chunk_uninit(force.len()) {
-            Ok(chunk) => {
-                chunk.fill_from_iter(force.iter().copied());
-            }
-            Err(_) => {
-                AudioStats::bump(&self.stats.dropped);
-                return false;
-            }
         }
         self.send(Cue::Force {
             source: source as u32,
@@ -275,23 +284,12 @@ impl CueSender {
     /// object) takes a spare source. False (dropped) when a queue is full.
     pub fn sound(&mut self, source: usize, modes: &[(f64, f64)], gains: &[f32]) -> bool {
         let m = modes.len().min(gains.len());
-        if self.cues.slots() == 0 || self.samples.slots() < 3 * m {
-            AudioStats::bump(&self.stats.dropped);
+        let triples = modes
+            .iter()
+            .zip(gains)
+            .flat_map(|(&(f, d), &g)| [f as f32, d as f32, g]);
+        if !self.write_samples(3 * m, triples) {
             return false;
-        }
-        match self.samples.write_chunk_uninit(3 * m) {
-            Ok(chunk) => {
-                chunk.fill_from_iter(
-                    modes
-                        .iter()
-                        .zip(gains)
-                        .flat_map(|(&(f, d), &g)| [f as f32, d as f32, g]),
-                );
-            }
-            Err(_) => {
-                AudioStats::bump(&self.stats.dropped);
-                return false;
-            }
         }
         self.send(Cue::Sound {
             source: source as u32,
@@ -303,18 +301,8 @@ impl CueSender {
     /// [`crate::radiation::Radiator::update`] computes them. False (dropped) when a queue is
     /// full.
     pub fn radiation(&mut self, source: usize, factors: &[f32]) -> bool {
-        if self.cues.slots() == 0 || self.samples.slots() < factors.len() {
-            AudioStats::bump(&self.stats.dropped);
+        if !self.write_samples(factors.len(), factors.iter().copied()) {
             return false;
-        }
-        match self.samples.write_chunk_uninit(factors.len()) {
-            Ok(chunk) => {
-                chunk.fill_from_iter(factors.iter().copied());
-            }
-            Err(_) => {
-                AudioStats::bump(&self.stats.dropped);
-                return false;
-            }
         }
         self.send(Cue::Radiation {
             source: source as u32,
