@@ -19,6 +19,7 @@
 
 use bevy::prelude::*;
 use bevy_rapier3d::prelude::*;
+use resound::synth::radiation::Radiator;
 use resound::synth::scene_audio::{
     scene_audio, Cue, CueSender, SceneAudio, SceneAudioParams, Source,
 };
@@ -66,6 +67,9 @@ pub struct Sounding {
     pub modes: Vec<(f64, f64)>,
     /// Output amplitude per N·s of each mode.
     pub gains: Vec<f32>,
+    /// How the modes radiate: the model's acoustic transfer (body frame) and each mode's index
+    /// in it ([`Sounding::radiating`]). `None`: every mode radiates alike (1/r).
+    pub radiation: Option<resound::physics::BodyRadiation>,
 }
 
 impl Sounding {
@@ -87,8 +91,62 @@ impl Sounding {
                 .get(k * m..(k + 1) * m)
                 .map_or(Vec::new(), <[f32]>::to_vec),
             modes: s.modes,
+            radiation: None,
         }
     }
+
+    /// [`Sounding::from_material`] whose modes radiate by `model`'s acoustic transfer (as a
+    /// scene's `radiation = true`): each mode's level and directivity at the [`Listener`] as
+    /// seen from the body's pose, updated when that direction turns by more than 1° or the
+    /// distance changes by more than 2 %. A model without a transfer (`resound modal
+    /// --transfer`) gets one fitted now (seconds). Levels become pressure-like (ω|p|r/ρc²).
+    ///
+    /// # Errors
+    /// A surface the transfer fit cannot use.
+    pub fn radiating(
+        model: &resound::core::ModalModel,
+        material: &resound::core::SoundMaterial,
+        vertex: usize,
+        sample_rate_hz: f64,
+    ) -> resound::Result<Self> {
+        let (t, _) = resound::radiation::transfer_of(model)?;
+        let poisson = model.material.poisson_ratio;
+        let s = resound::scene::body_sound(
+            model,
+            material,
+            poisson,
+            sample_rate_hz,
+            Some(std::sync::Arc::new(t.into_owned())),
+        );
+        let m = s.modes.len();
+        let k = vertex.min(s.vertices.len().saturating_sub(1));
+        Ok(Self {
+            gains: s
+                .gains
+                .get(k * m..(k + 1) * m)
+                .map_or(Vec::new(), <[f32]>::to_vec),
+            modes: s.modes,
+            radiation: s.radiation,
+        })
+    }
+
+    /// The radiation of the modes `keep` (indices into `modes`) at a listener, if this
+    /// sounding radiates and its radiation is consistent.
+    fn radiator(&self, keep: &[usize]) -> Option<Radiator> {
+        let r = self.radiation.as_ref()?;
+        let modes: Option<Vec<(usize, f64)>> = keep
+            .iter()
+            .map(|&k| Some((*r.modes.get(k)?, self.modes.get(k)?.0)))
+            .collect();
+        Radiator::new(std::sync::Arc::clone(&r.transfer), &modes?)
+    }
+}
+
+/// The listener seen from a body at `t` (its frame), m.
+fn in_body_frame(t: &Transform, listener: Vec3) -> [f64; 3] {
+    (t.rotation.inverse() * (listener - t.translation))
+        .to_array()
+        .map(f64::from)
 }
 
 impl Sounding {
@@ -138,6 +196,7 @@ impl Sounding {
                 .iter()
                 .map(|m| (m.gain / resound::synth::render::REFERENCE_IMPULSE_N_S) as f32)
                 .collect(),
+            radiation: None,
         })
     }
 }
@@ -175,6 +234,8 @@ pub struct AudioLink {
     /// Bodies that found no free source (reported once each).
     unheard: HashSet<Entity>,
     touching: HashSet<(Entity, Entity)>,
+    /// Per radiating source, its modes' radiation at the listener.
+    radiators: HashMap<u32, Radiator>,
     clock: u64,
     pulse: Vec<f32>,
     noise: Vec<f32>,
@@ -209,20 +270,28 @@ fn start(
     listener: Query<&Transform, With<Listener>>,
 ) {
     let s = &settings.0;
-    let listener = listener
-        .iter()
-        .next()
-        .map_or([0.0; 3], |t| t.translation.to_array().map(f64::from));
+    let heard_at = listener.iter().next().map_or(Vec3::ZERO, |t| t.translation);
+    let listener = heard_at.to_array().map(f64::from);
     let mut sources = Vec::new();
     let mut source_of = HashMap::new();
+    let mut radiators = HashMap::new();
     for (e, snd, t) in &bodies {
-        source_of.insert(e, sources.len() as u32);
+        let i = sources.len() as u32;
+        source_of.insert(e, i);
+        let all: Vec<usize> = (0..snd.modes.len()).collect();
+        let mut radiation = Vec::new();
+        if let Some(mut r) = snd.radiator(&all) {
+            if let Some(f) = r.update(in_body_frame(t, heard_at)) {
+                radiation = f.to_vec();
+            }
+            radiators.insert(i, r);
+        }
         sources.push(Source {
             modes: snd.modes.clone(),
             gains: snd.gains.clone(),
             grains: None,
             position: t.translation.to_array().map(f64::from),
-            radiation: Vec::new(),
+            radiation,
         });
         listen(&mut commands, e);
     }
@@ -267,6 +336,7 @@ fn start(
                 capacity,
                 unheard: HashSet::new(),
                 touching: HashSet::new(),
+                radiators,
                 clock: 0,
                 pulse: vec![0.0; (fs * 5e-4).round().max(1.0) as usize],
                 noise: vec![0.0; 8192],
@@ -286,8 +356,8 @@ fn listen(commands: &mut Commands, e: Entity) {
     ));
 }
 
-/// The loudest `n` of a sounding's modes (by gain), in their order.
-fn loudest(snd: &Sounding, n: usize) -> (Vec<(f64, f64)>, Vec<f32>) {
+/// The loudest `n` of a sounding's modes (by gain), in their order: their indices.
+fn loudest(snd: &Sounding, n: usize) -> Vec<usize> {
     let m = snd.modes.len().min(snd.gains.len());
     let mut idx: Vec<usize> = (0..m).collect();
     if m > n {
@@ -295,10 +365,7 @@ fn loudest(snd: &Sounding, n: usize) -> (Vec<(f64, f64)>, Vec<f32>) {
         idx.truncate(n);
         idx.sort_unstable();
     }
-    (
-        idx.iter().map(|&i| snd.modes[i]).collect(),
-        idx.iter().map(|&i| snd.gains[i]).collect(),
-    )
+    idx
 }
 
 /// After rapier's step: bodies that started or stopped sounding, the listener, impacts and
@@ -342,6 +409,7 @@ fn excite(
     // A body that lost its Sounding (or was despawned) frees its source, silenced.
     for e in removed.read() {
         if let Some(i) = st.source_of.remove(&e) {
+            st.radiators.remove(&i);
             st.tx.sound(i as usize, &[], &[]);
             let cap = st.capacity[i as usize];
             st.free.push((i, cap));
@@ -361,15 +429,36 @@ fn excite(
             continue;
         };
         let (i, cap) = st.free.swap_remove(k);
-        let (modes, gains) = loudest(snd, cap);
+        let keep = loudest(snd, cap);
+        let modes: Vec<(f64, f64)> = keep.iter().map(|&k| snd.modes[k]).collect();
+        let gains: Vec<f32> = keep.iter().map(|&k| snd.gains[k]).collect();
         st.tx.sound(i as usize, &modes, &gains);
+        // Its factors are sent below, before any force (the new modes cleared the old ones).
+        match snd.radiator(&keep) {
+            Some(r) => st.radiators.insert(i, r),
+            None => st.radiators.remove(&i),
+        };
         st.source_of.insert(e, i);
         listen(&mut commands, e);
     }
-    if let Some(t) = listener.iter().next() {
+    let heard_at = listener.iter().next().map(|t| t.translation);
+    if let Some(p) = heard_at {
         st.tx.send(Cue::Listener {
-            position: t.translation.to_array(),
+            position: p.to_array(),
         });
+    }
+    // Radiation: each radiating body's factors when the listener, seen from it, has turned or
+    // moved enough (before the forces, which they scale).
+    let link = &mut *st;
+    for (e, &i) in &link.source_of {
+        let (Some(r), Ok((t, _))) = (link.radiators.get_mut(&i), bodies.get(*e)) else {
+            continue;
+        };
+        if let Some(f) = r.update(in_body_frame(t, heard_at.unwrap_or(Vec3::ZERO))) {
+            if !link.tx.radiation(i as usize, f) {
+                r.invalidate();
+            }
+        }
     }
     for (&e, &i) in &st.source_of {
         if let Ok((t, _)) = bodies.get(e) {

@@ -8,6 +8,7 @@ fn sound() -> Sounding {
     Sounding {
         modes: vec![(820.0, 12.0), (2270.0, 20.0), (4450.0, 35.0)],
         gains: vec![0.05, 0.03, 0.02],
+        radiation: None,
     }
 }
 
@@ -129,6 +130,7 @@ fn spawn_run(listener: [f32; 3]) -> (Vec<f32>, f64, f64) {
     let bell = Sounding {
         modes: vec![(1500.0, 4.0)],
         gains: vec![0.05],
+        radiation: None,
     };
     drop_scene::spawn_bar(app.world_mut(), &bell, 0.3, 0.3);
     let out = drop_scene::run(&mut app, 1.0);
@@ -185,4 +187,131 @@ fn a_body_spawned_while_running_sounds_at_its_impact_and_the_listener_is_followe
         (ratio / want - 1.0).abs() < 0.1,
         "near/far {ratio}, 1/r says {want}"
     );
+}
+
+/// Issue 19: a `Sounding::radiating` body radiates each mode by its model's acoustic transfer
+/// at the listener as seen from the body. A fixed steel bar turned 90° about y, with a silent
+/// ball dropped on it, rendered plain and radiating: the same contacts, so each mode's level
+/// (windowed DFT at its frequency) changes by that mode's factor at the listener in the bar's
+/// frame (`AcousticTransfer::factor`). The factors differ from mode to mode and from the
+/// un-turned bar's, so a constant scale or a wrong frame fails.
+#[test]
+fn a_radiating_body_is_heard_by_its_transfer_in_its_own_frame() {
+    use bevy::prelude::*;
+    use bevy_rapier3d::prelude::*;
+    let steel = resound::core::Material::preset("steel").unwrap();
+    let size = [0.2, 0.03, 0.02];
+    let mut model =
+        resound::modal::ModalBuilder::surface(&resound::fem::primitive::bar(size), &steel)
+            .modes(8)
+            .solve()
+            .unwrap()
+            .model;
+    resound::radiation::add_transfer(&mut model, &resound::modal::TransferParams::default())
+        .unwrap();
+    let material =
+        resound::material::resolve_material("preset:steel", std::path::Path::new("."), None)
+            .unwrap();
+    let plain = Sounding::from_material(&model, &material, 0, 48_000.0);
+    let heard = Sounding::radiating(&model, &material, 0, 48_000.0).unwrap();
+    assert_eq!(plain.modes, heard.modes);
+    let listener = Vec3::new(0.25, 0.35, 0.15);
+    let turn = Quat::from_rotation_y(std::f32::consts::FRAC_PI_2);
+    let render = |sound: &Sounding| {
+        let mut app = App::new();
+        app.add_plugins((
+            MinimalPlugins,
+            TransformPlugin,
+            RapierPhysicsPlugin::<NoUserData>::default(),
+            resound_bevy::ResoundPlugin::default(),
+        ))
+        .insert_resource(TimestepMode::Fixed {
+            dt: (1.0 / drop_scene::FPS) as f32,
+            substeps: 4,
+        })
+        .insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+            std::time::Duration::from_secs_f64(1.0 / drop_scene::FPS),
+        ));
+        let world = app.world_mut();
+        world.spawn((
+            Transform::from_rotation(turn),
+            RigidBody::Fixed,
+            Collider::cuboid(0.1, 0.015, 0.01),
+            sound.clone(),
+        ));
+        world.spawn((
+            Transform::from_xyz(0.0, 0.08, 0.03),
+            RigidBody::Dynamic,
+            Collider::ball(0.01),
+            ColliderMassProperties::Density(7850.0),
+            Restitution::coefficient(0.5),
+        ));
+        world.spawn((
+            Transform::from_translation(listener),
+            resound_bevy::Listener,
+        ));
+        app.finish();
+        drop_scene::run(&mut app, 1.5)
+    };
+    let a = render(&plain);
+    let b = render(&heard);
+    assert!(!a.impacts.is_empty());
+    assert_eq!(a.impacts.len(), b.impacts.len());
+    let fs = a.sample_rate_hz;
+    // Hann-windowed DFT magnitude at f over 0.4–1.4 s (after the first impact).
+    let (k0, n) = ((0.4 * fs) as usize, fs as usize);
+    let level = |x: &[f32], f: f64| {
+        let (mut re, mut im) = (0.0, 0.0);
+        for (k, &v) in x[k0..k0 + n].iter().enumerate() {
+            let w = 0.5 - 0.5 * (std::f64::consts::TAU * k as f64 / n as f64).cos();
+            let ph = std::f64::consts::TAU * f * k as f64 / fs;
+            re += w * f64::from(v) * ph.cos();
+            im += w * f64::from(v) * ph.sin();
+        }
+        re.hypot(im)
+    };
+    let r = heard.radiation.as_ref().unwrap();
+    let local = (turn.inverse() * listener).to_array().map(f64::from);
+    let unturned = listener.to_array().map(f64::from);
+    let mut scratch = resound::core::radiation::FieldScratch::default();
+    let plain_levels: Vec<f64> = plain
+        .modes
+        .iter()
+        .map(|m| level(&a.channels[0], m.0))
+        .collect();
+    let top = plain_levels.iter().copied().fold(0.0, f64::max);
+    let (mut compared, mut worst, mut lo, mut hi, mut sensitive) =
+        (0, 0.0f64, f64::MAX, 0.0f64, false);
+    for (k, &(f, _)) in plain.modes.iter().enumerate() {
+        let want = r
+            .transfer
+            .factor(r.modes[k], f, local, &mut scratch)
+            .unwrap();
+        let other = r
+            .transfer
+            .factor(r.modes[k], f, unturned, &mut scratch)
+            .unwrap();
+        let got = level(&b.channels[0], f) / plain_levels[k];
+        eprintln!(
+            "mode {k}: {f:8.1} Hz  level {:.3e}  factor {want:.4e}  measured {got:.4e}  \
+             (un-turned {other:.4e})",
+            plain_levels[k]
+        );
+        // Below that, the other modes' window leakage is comparable.
+        if plain_levels[k] < 1e-7 * top {
+            continue;
+        }
+        compared += 1;
+        worst = worst.max((got / want - 1.0).abs());
+        lo = lo.min(want);
+        hi = hi.max(want);
+        sensitive |= (other / want - 1.0).abs() > 0.1;
+    }
+    assert!(compared >= 4, "{compared} modes loud enough");
+    assert!(worst < 0.03, "measured factors off by up to {worst:.3}");
+    assert!(
+        hi / lo > 2.0,
+        "factors {lo:.3e}..{hi:.3e}: too alike to tell"
+    );
+    assert!(sensitive, "the bar's turn changes no factor");
 }
