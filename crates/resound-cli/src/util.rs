@@ -65,9 +65,15 @@ impl Progress {
         }
     }
 
-    /// Sets the message.
+    /// Sets the message. A message that starts with `warning:` (the library's build steps
+    /// say so) is printed as a line of its own instead, on a terminal and in a log alike: a
+    /// spinner's next message or the log's rate limit would otherwise hide it.
     pub fn set_message(&self, msg: impl Into<String>) {
         let msg = msg.into();
+        if msg.starts_with("warning:") {
+            self.pb.suspend(|| eprintln!("{msg}"));
+            return;
+        }
         self.line(&msg);
         self.pb.set_message(msg);
     }

@@ -2269,3 +2269,59 @@ fn an_estimate_hears_the_strike_at_its_microphone() {
     fails_with(&estimate("0.05,0.35"), "x,y,z");
     fails_with(&estimate("nan,0,0"), "x,y,z");
 }
+
+/// Issue 19: `radiation = true` in a scene fits each modal body's acoustic transfer once and
+/// keeps it in the model cache; a thin plate, whose bending modes the equivalent sources cannot
+/// fit (its thickness is far below their spacing), is named in a warning on every build, the
+/// ball never. The output is what the scene renders.
+#[test]
+fn a_radiating_scene_warns_of_bodies_whose_transfer_is_uncertain_on_every_build() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = r#"
+duration = 0.5
+radiation = true
+[listener]
+position = [0.0, 0.3, 0.4]
+
+[[body]]
+name = "plate"
+fixed = true
+shape = { plate = [0.16, 0.1, 0.004] }
+material = "preset:aluminium"
+density = 2700
+modes = 10
+
+[[body]]
+name = "ball"
+shape = { sphere = 0.02 }
+material = "preset:steel"
+density = 7850
+position = [0.0, 0.2, 0.0]
+modes = 6
+"#;
+    std::fs::write(d.join("r.toml"), scene).unwrap();
+    let run = || {
+        let out = resound(
+            &[
+                "scene", "r.toml", "-o", "r.wav", "--cache", "cache", "--json",
+            ],
+            d,
+        );
+        let v: Value = serde_json::from_str(&ok(&out)).unwrap();
+        (v, String::from_utf8_lossy(&out.stderr).into_owned())
+    };
+    let (first, err1) = run();
+    assert!(first["impacts"].as_u64().unwrap() >= 1, "{first}");
+    let (second, err2) = run();
+    for err in [&err1, &err2] {
+        assert!(
+            err.contains("warning: body \"plate\": the acoustic transfer fits"),
+            "{err}"
+        );
+        assert!(!err.contains("body \"ball\": the acoustic"), "{err}");
+    }
+    // The second build loaded the transfers from the cache: the same sound.
+    assert_eq!(first["peak"], second["peak"]);
+    assert!(second["build_s"].as_f64().unwrap() < first["build_s"].as_f64().unwrap());
+}

@@ -169,17 +169,10 @@ fn body_transfer(
         None => {
             progress("fitting the acoustic transfer");
             let mut m = (**model).clone();
-            let info = crate::radiation::add_transfer(
+            crate::radiation::add_transfer(
                 &mut m,
                 &resound_modal::radiation::TransferParams::default(),
             )?;
-            if info.poorly_fitted > 0 {
-                progress(&format!(
-                    "warning: the acoustic transfer fits {} modes poorly (misfit > 0.9): their \
-                     levels are uncertain",
-                    info.poorly_fitted
-                ));
-            }
             if let Some(f) = cache_file {
                 // A cache that cannot be written only costs time later.
                 let _ = resound_io::model_file::save(f, &m);
@@ -391,7 +384,26 @@ pub fn build_scene(
             } else {
                 None
             };
-            Some(body_sound(&model, &material, b.poisson, fs, transfer))
+            let s = body_sound(&model, &material, b.poisson, fs, transfer);
+            if let Some(r) = &s.radiation {
+                // Said on every build (the transfer may come from the cache).
+                let poor = r
+                    .modes
+                    .iter()
+                    .zip(&s.modes)
+                    .filter(|&(&j, &(f, _))| r.transfer.misfit_at(j, f).is_some_and(|m| m > 0.9))
+                    .count();
+                if poor > 0 {
+                    (opts.progress)(&format!(
+                        "warning: body {:?}: the acoustic transfer fits {poor} of its {} sounding \
+                         modes poorly (misfit > 0.9: a shape far from smooth, or wavelengths \
+                         shorter than the fit resolves): their levels are uncertain",
+                        b.name,
+                        s.modes.len()
+                    ));
+                }
+            }
+            Some(s)
         } else {
             None
         };
