@@ -2321,6 +2321,16 @@ modes = 6
         );
         assert!(!err.contains("body \"ball\": the acoustic"), "{err}");
     }
+    for v in [&first, &second] {
+        let notes = v["notes"].as_array().unwrap();
+        assert!(
+            notes.iter().any(|n| n
+                .as_str()
+                .unwrap()
+                .starts_with("body \"plate\": the acoustic")),
+            "{v}"
+        );
+    }
     // The second build loaded the transfers from the cache: the same sound.
     assert_eq!(first["peak"], second["peak"]);
     assert!(second["build_s"].as_f64().unwrap() < first["build_s"].as_f64().unwrap());

@@ -409,6 +409,20 @@ def test_a_scene_built_in_code_renders_as_its_scene_file(tmp_path):
         resound.render_scene({**scene_in_code().to_dict(), "durration": 1})
 
 
+def test_a_radiating_scene_names_bodies_whose_radiation_is_uncertain():
+    # A thin plate's bending modes defeat the transfer fit: a note names it, not the ball.
+    scene = {"duration": 0.3, "radiation": True, "listener": {"position": [0.0, 0.3, 0.4]},
+             "body": [{"name": "plate", "fixed": True, "shape": {"plate": [0.16, 0.1, 0.004]},
+                       "material": "preset:aluminium", "density": 2700, "modes": 10},
+                      {"name": "ball", "shape": {"sphere": 0.02}, "material": "preset:steel",
+                       "density": 7850, "position": [0.0, 0.2, 0.0], "modes": 6}]}
+    r = resound.render_scene(scene)
+    notes = r.summary["notes"]
+    assert any(n.startswith('body "plate": the acoustic transfer') for n in notes), notes
+    assert not any('"ball"' in n for n in notes), notes
+    assert np.all(np.isfinite(r.audio)) and np.max(np.abs(r.audio)) > 0
+
+
 def test_a_scrape_sounds_at_the_objects_modes_and_matches_the_cli(model, tmp_path):
     fs = 48000
     modes = model.modes("wood", [0.04, 0.013, 0.011], max_freq_hz=fs / 2)

@@ -507,7 +507,8 @@ pub struct SceneSummary {
     pub events: usize,
     /// This process's peak resident memory, MB (0 where unknown).
     pub peak_rss_mb: f64,
-    /// Things the user should know (silence, turned down to avoid clipping).
+    /// Things the user should know (build warnings such as uncertain radiation, silence,
+    /// turned down to avoid clipping).
     pub notes: Vec<String>,
     /// Live-path figures (a run with a simulated device).
     #[serde(skip_serializing_if = "Option::is_none", default)]
@@ -598,7 +599,8 @@ pub fn render_scene(
     simulated: &dyn Fn(f64),
 ) -> Result<SceneRender> {
     let t0 = std::time::Instant::now();
-    let (bodies, sp) = load_scene(path, params, stage)?;
+    let warnings = std::cell::RefCell::new(Vec::new());
+    let (bodies, sp) = load_scene(path, params, &collecting(stage, &warnings))?;
     run_built(
         bodies,
         sp,
@@ -606,7 +608,20 @@ pub fn render_scene(
         &path.display().to_string(),
         params,
         simulated,
+        warnings.into_inner(),
     )
+}
+
+/// `stage` for build messages, except warnings (`warning: …`), which go to `warnings`: they
+/// reach the summary's notes, which every front end shows (a progress message may not be).
+fn collecting<'a>(
+    stage: &'a dyn Fn(&str),
+    warnings: &'a std::cell::RefCell<Vec<String>>,
+) -> impl Fn(&str) + 'a {
+    move |m: &str| match m.strip_prefix("warning: ") {
+        Some(w) => warnings.borrow_mut().push(w.to_string()),
+        None => stage(m),
+    }
 }
 
 /// [`render_scene`] of scene text (TOML, the scene file format) that is in no file: `label`
@@ -625,8 +640,23 @@ pub fn render_scene_text(
 ) -> Result<SceneRender> {
     let t0 = std::time::Instant::now();
     let scene = resound_io::scene::parse_scene(text, label)?;
-    let (bodies, sp) = build_parsed(&scene, base_dir, label, params, stage)?;
-    run_built(bodies, sp, t0, label, params, simulated)
+    let warnings = std::cell::RefCell::new(Vec::new());
+    let (bodies, sp) = build_parsed(
+        &scene,
+        base_dir,
+        label,
+        params,
+        &collecting(stage, &warnings),
+    )?;
+    run_built(
+        bodies,
+        sp,
+        t0,
+        label,
+        params,
+        simulated,
+        warnings.into_inner(),
+    )
 }
 
 fn run_built(
@@ -636,6 +666,7 @@ fn run_built(
     label: &str,
     params: &SceneRenderParams,
     simulated: &dyn Fn(f64),
+    build_warnings: Vec<String>,
 ) -> Result<SceneRender> {
     let build_s = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
@@ -666,7 +697,7 @@ fn run_built(
     };
     let level =
         resound_synth::render::set_level(&mut out.channels, resound_synth::render::CEILING, mode)?;
-    let mut notes = Vec::new();
+    let mut notes = build_warnings;
     if level.peak_before == 0.0 {
         notes.push("the scene is silent (no sounding contacts)".to_string());
     } else if let Some(w) = level.quiet_warning() {
