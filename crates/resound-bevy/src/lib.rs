@@ -83,6 +83,11 @@ impl Sounding {
     ) -> Self {
         let poisson = model.material.poisson_ratio;
         let s = resound::scene::body_sound(model, material, poisson, sample_rate_hz, None);
+        Self::at_vertex(s, vertex)
+    }
+
+    /// A scene body's sound heard at one surface vertex (the plugin's contacts excite one).
+    fn at_vertex(s: resound::physics::BodySound, vertex: usize) -> Self {
         let m = s.modes.len();
         let k = vertex.min(s.vertices.len().saturating_sub(1));
         Self {
@@ -91,7 +96,7 @@ impl Sounding {
                 .get(k * m..(k + 1) * m)
                 .map_or(Vec::new(), <[f32]>::to_vec),
             modes: s.modes,
-            radiation: None,
+            radiation: s.radiation,
         }
     }
 
@@ -118,16 +123,7 @@ impl Sounding {
             sample_rate_hz,
             Some(std::sync::Arc::new(t.into_owned())),
         );
-        let m = s.modes.len();
-        let k = vertex.min(s.vertices.len().saturating_sub(1));
-        Ok(Self {
-            gains: s
-                .gains
-                .get(k * m..(k + 1) * m)
-                .map_or(Vec::new(), <[f32]>::to_vec),
-            modes: s.modes,
-            radiation: s.radiation,
-        })
+        Ok(Self::at_vertex(s, vertex))
     }
 
     /// The radiation of the modes `keep` (indices into `modes`) at a listener, if this

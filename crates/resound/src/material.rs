@@ -257,7 +257,7 @@ pub struct EstimateInfo {
     pub metric: f64,
     /// Starting points run.
     pub starts: usize,
-    /// Metric evaluations.
+    /// Metric evaluations (of every run, with a microphone).
     pub evaluations: usize,
     /// Reference modes (the recording's features).
     pub reference_modes: usize,
@@ -518,10 +518,12 @@ pub fn estimate_material_from(
     // material puts the modes, then where each estimate's γ does, until γ settles.
     let mut gamma = model.material.youngs_modulus / model.material.density;
     let mut passes = 0;
+    let mut evaluations = 0;
     let (sides, est, joint) = loop {
         let sides = sides_at(gamma, &mut Vec::new())?;
         let (est, joint) = run(&sides)?;
         passes += 1;
+        evaluations += est.evaluations;
         let Some(_) = params.mic_m else {
             break (sides, est, joint);
         };
@@ -712,7 +714,7 @@ pub fn estimate_material_from(
         params: p,
         metric: est.metric,
         starts: est.starts,
-        evaluations: est.evaluations,
+        evaluations,
         reference_modes: takes.iter().map(|t| t.analysis.modes.len()).sum(),
         estimated_modes: estimated,
         elapsed_s: t0.elapsed().as_secs_f64(),

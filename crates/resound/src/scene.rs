@@ -177,7 +177,11 @@ fn body_transfer(
                 // A cache that cannot be written only costs time later.
                 let _ = resound_io::model_file::save(f, &m);
             }
-            std::sync::Arc::new(m.transfer.take().expect("just fitted"))
+            std::sync::Arc::new(
+                m.transfer
+                    .take()
+                    .ok_or_else(|| invalid("the acoustic transfer fit stored nothing"))?,
+            )
         }
     };
     transfers.insert(key, std::sync::Arc::clone(&t));
