@@ -6,7 +6,7 @@ cd "$(dirname "$0")/../.."
 VENV=${RESOUND_VENV:-.venv}
 [ -x "$VENV/bin/python" ] || python3 -m venv "$VENV"
 "$VENV/bin/python" -c "import maturin, pytest, numpy, ray, mypy" 2>/dev/null \
-    || "$VENV/bin/pip" install -q "maturin>=1.9.4,<2" pytest numpy ray
+    || "$VENV/bin/pip" install -q "maturin>=1.9.4,<2" pytest numpy ray mypy
 # Build the abi3 wheel and install it, as users do with `pip install ./crates/resound-py`,
 # but with the dev profile that `cargo test` has already built the dependencies for (a
 # release build would add minutes and test the same code).

@@ -850,7 +850,7 @@ fn run_estimate(a: EstimateBenchArgs) -> Result<()> {
         Ok(ModalSide {
             eigenvalues0: model.eigenvalues.clone(),
             gains0: model.gains(&sp),
-            gamma0: ceramic.youngs_modulus / ceramic.density,
+            gamma0: ceramic.stiffness_density_ratio(),
         })
     };
     let side = side_at(2500)?;

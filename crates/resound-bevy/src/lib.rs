@@ -6,10 +6,16 @@
 //! force events of sounding bodies and sends excitations to Resound's scene audio side
 //! (`resound::synth::scene_audio`, the same allocation-free backend as `resound scene`):
 //!
-//! - a pair that starts touching is an **impact**: a half-sine force pulse carrying the
-//!   solver's impulse of the frame (contact force × frame time);
-//! - a pair that stays in touch and slides or rolls (tangential relative speed above 2 cm/s)
-//!   **rubs**: white noise of RMS `roughness × normal force × speed` over the frame;
+//! the very contact model of `resound scene` ([`resound::physics::contact`]), so a game sounds
+//! like the same scene rendered offline:
+//!
+//! - a pair that starts touching is an **impact**: Hertz's force pulse for the two bodies'
+//!   elasticity ([`Sounding::elastic`]), reduced mass (rapier's mass properties) and contact
+//!   radius (from the collider), carrying the solver's impulse of the frame (contact force ×
+//!   frame time), at the approach speed of the frame before;
+//! - a pair that stays in touch **slides** or **rolls** by the slip of its contact points
+//!   (taken at the contact radius from each centre, along the contact normal), with the
+//!   scene's sliding and rolling forces over the frame;
 //! - a pair at rest, and a body in free fall, send nothing: silence once the modes decay.
 //!
 //! Sources are placed at their bodies' positions every frame and heard from the listener with
@@ -19,6 +25,10 @@
 
 use bevy::prelude::*;
 use bevy_rapier3d::prelude::*;
+use resound::physics::contact::{
+    classify_persistent, impact_pulse, is_impact, radius_from_extents, scene_profile, ContactBody,
+    ContactKind, PairContact, SILENT_ELASTIC,
+};
 use resound::synth::radiation::Radiator;
 use resound::synth::scene_audio::{
     scene_audio, Cue, CueSender, SceneAudio, SceneAudioParams, Source,
@@ -34,8 +44,8 @@ pub struct ResoundPlugin {
     pub stereo: bool,
     /// Render each frame's samples into [`ResoundOutput`] (headless).
     pub capture: bool,
-    /// RMS rubbing force per newton of normal force and m/s of speed.
-    pub roughness: f64,
+    /// Seed of the rough profile sliding and rolling contacts read (a scene's `seed`).
+    pub seed: u64,
     /// With a device (`capture: false`): each frame's cues take effect this many samples after
     /// the audio clock (at least a device block and a frame's jitter), samples.
     pub latency_samples: u64,
@@ -52,7 +62,7 @@ impl Default for ResoundPlugin {
             sample_rate_hz: 48_000.0,
             stereo: true,
             capture: true,
-            roughness: 0.01,
+            seed: 1,
             latency_samples: 2048,
             spare_sources: 32,
             spare_modes: 64,
@@ -70,6 +80,8 @@ pub struct Sounding {
     /// How the modes radiate: the model's acoustic transfer (body frame) and each mode's index
     /// in it ([`Sounding::radiating`]). `None`: every mode radiates alike (1/r).
     pub radiation: Option<resound::physics::BodyRadiation>,
+    /// Elastic constants for Hertz contact (a scene body's: the material's E at the model's ν).
+    pub elastic: resound::synth::excitation::Elastic,
 }
 
 impl Sounding {
@@ -97,6 +109,7 @@ impl Sounding {
                 .map_or(Vec::new(), <[f32]>::to_vec),
             modes: s.modes,
             radiation: s.radiation,
+            elastic: s.elastic,
         }
     }
 
@@ -176,7 +189,8 @@ impl Sounding {
 
     /// One draw (`seed`) of mode statistics (fitted with `resound stats fit` or imported from
     /// PyImpact): the modes of a struck object of that kind, with no mesh. The gains are the
-    /// statistics' amplitudes per reference impulse.
+    /// statistics' amplitudes per reference impulse; with no material, contacts take the
+    /// elasticity of a silent scene body ([`resound::physics::contact::SILENT_ELASTIC`]).
     ///
     /// # Errors
     /// Statistics that cannot be sampled.
@@ -193,6 +207,7 @@ impl Sounding {
                 .map(|m| (m.gain / resound::synth::render::REFERENCE_IMPULSE_N_S) as f32)
                 .collect(),
             radiation: None,
+            elastic: resound::physics::contact::SILENT_ELASTIC,
         })
     }
 }
@@ -210,6 +225,12 @@ pub struct ResoundOutput {
     pub sample_rate_hz: f64,
     /// Impacts sent, with their frame's start time (s) and the bodies.
     pub impacts: Vec<(f64, Entity, Entity)>,
+    /// Each impact's approach speed (m/s) and impulse (N·s), as a scene's event log has them.
+    pub impact_figures: Vec<(f64, f64)>,
+    /// Frame-steps of sliding and of rolling (a scene's `sliding_steps`, `rolling_steps`).
+    pub sliding_steps: usize,
+    /// Frame-steps of rolling.
+    pub rolling_steps: usize,
 }
 
 /// The plugin's link to the audio side (a resource; the mutex makes the queue ends `Sync`
@@ -229,13 +250,19 @@ pub struct AudioLink {
     capacity: Vec<usize>,
     /// Bodies that found no free source (reported once each).
     unheard: HashSet<Entity>,
-    touching: HashSet<(Entity, Entity)>,
+    /// Pairs in touch at the last frame, with their contact state (profile position).
+    touching: HashMap<(Entity, Entity), PairContact>,
+    /// Last frame's map, emptied (its capacity reused).
+    spare: HashMap<(Entity, Entity), PairContact>,
+    /// This frame's pairs: impulse (N·s), the strongest force's direction and magnitude.
+    frame: HashMap<(Entity, Entity), (f64, Vec3, f32)>,
+    /// Each body's velocity at the end of the last frame (the approach of a new contact).
+    before: HashMap<Entity, Velocity>,
     /// Per radiating source, its modes' radiation at the listener.
     radiators: HashMap<u32, Radiator>,
     clock: u64,
-    pulse: Vec<f32>,
-    noise: Vec<f32>,
-    rng: u64,
+    profile: resound::synth::contact::Profile,
+    force: Vec<f32>,
 }
 
 #[derive(Resource, Clone)]
@@ -331,25 +358,30 @@ fn start(
                 free,
                 capacity,
                 unheard: HashSet::new(),
-                touching: HashSet::new(),
+                touching: HashMap::new(),
+                spare: HashMap::new(),
+                frame: HashMap::new(),
+                before: HashMap::new(),
                 radiators,
                 clock: 0,
-                pulse: vec![0.0; (fs * 5e-4).round().max(1.0) as usize],
-                noise: vec![0.0; 8192],
-                rng: 0x9E37_79B9_7F4A_7C15,
+                profile: scene_profile(s.seed),
+                force: vec![0.0; (fs / 10.0) as usize],
             })));
         }
         Err(e) => eprintln!("resound: no audio: {e}"),
     }
 }
 
-/// Asks rapier for a sounding body's contact forces and velocity.
+/// Asks rapier for a sounding body's contact forces, velocity and mass (keeping a velocity it
+/// was given).
 fn listen(commands: &mut Commands, e: Entity) {
-    commands.entity(e).insert((
-        ActiveEvents::CONTACT_FORCE_EVENTS,
-        ContactForceEventThreshold(0.0),
-        Velocity::default(),
-    ));
+    commands
+        .entity(e)
+        .insert((
+            ActiveEvents::CONTACT_FORCE_EVENTS,
+            ContactForceEventThreshold(0.0),
+        ))
+        .insert_if_new((Velocity::default(), ReadMassProperties::default()));
 }
 
 /// The loudest `n` of a sounding's modes (by gain), in their order: their indices.
@@ -374,7 +406,9 @@ fn excite(
     state: Option<ResMut<ResoundAudio>>,
     mut output: ResMut<ResoundOutput>,
     mut forces: MessageReader<ContactForceEvent>,
-    bodies: Query<(&Transform, Option<&Velocity>)>,
+    timestep: Option<Res<TimestepMode>>,
+    bodies: Query<BodyParts>,
+    unmeasured: Query<Entity, (With<RigidBody>, Without<Velocity>)>,
     added: Query<(Entity, &Sounding), Added<Sounding>>,
     mut removed: RemovedComponents<Sounding>,
     listener: Query<&Transform, With<Listener>>,
@@ -386,8 +420,8 @@ fn excite(
     let s = &settings.0;
     let fs = s.sample_rate_hz;
     let dt = time.delta_secs_f64();
-    let n = (dt * fs).round() as usize;
-    if n == 0 {
+    let n_samples = (dt * fs).round() as usize;
+    if n_samples == 0 {
         forces.clear();
         return;
     }
@@ -447,7 +481,7 @@ fn excite(
     // moved enough (before the forces, which they scale).
     let link = &mut *st;
     for (e, &i) in &link.source_of {
-        let (Some(r), Ok((t, _))) = (link.radiators.get_mut(&i), bodies.get(*e)) else {
+        let (Some(r), Ok((_, t, ..))) = (link.radiators.get_mut(&i), bodies.get(*e)) else {
             continue;
         };
         if let Some(f) = r.update(in_body_frame(t, heard_at.unwrap_or(Vec3::ZERO))) {
@@ -457,71 +491,151 @@ fn excite(
         }
     }
     for (&e, &i) in &st.source_of {
-        if let Ok((t, _)) = bodies.get(e) {
+        if let Ok((_, t, ..)) = bodies.get(e) {
             st.tx.send(Cue::Place {
                 source: i,
                 position: t.translation.to_array(),
             });
         }
     }
-    let mut now = HashSet::new();
+    let link = &mut *st;
+    // rapier reports each substep's contact forces: a pair's impulse over the frame is their
+    // sum times the substep, its mean normal force that over the frame.
+    let substeps = match timestep.as_deref() {
+        Some(
+            TimestepMode::Fixed { substeps, .. }
+            | TimestepMode::Variable { substeps, .. }
+            | TimestepMode::Interpolated { substeps, .. },
+        ) => (*substeps).max(1),
+        None => 1,
+    };
+    let dt_sub = dt / substeps as f64;
+    let mut frame = std::mem::take(&mut link.frame);
+    frame.clear();
     for f in forces.read() {
         let key = if f.collider1 < f.collider2 {
             (f.collider1, f.collider2)
         } else {
             (f.collider2, f.collider1)
         };
-        now.insert(key);
-        let normal_force = f64::from(f.total_force_magnitude);
-        let velocity = |e: Entity| {
-            bodies
-                .get(e)
-                .ok()
-                .and_then(|(_, v)| v.copied())
-                .unwrap_or_default()
-        };
-        let (v1, v2) = (velocity(key.0), velocity(key.1));
-        let rel = v1.linear - v2.linear;
-        let dir = f.max_force_direction;
-        let tangential = (rel - dir * rel.dot(dir)).length();
-        let targets = [key.0, key.1].map(|e| st.source_of.get(&e).copied());
-        if !st.touching.contains(&key) {
-            // An impact: the frame's impulse as a 0.5 ms half-sine.
-            let impulse = normal_force * dt;
-            let len = st.pulse.len();
-            let mut sum = 0.0;
-            for (k, p) in st.pulse.iter_mut().enumerate() {
-                let v = (std::f64::consts::PI * (k as f64 + 0.5) / len as f64).sin();
-                *p = v as f32;
-                sum += v;
-            }
-            let scale = impulse * fs / sum;
-            for i in targets.into_iter().flatten() {
-                let pulse = std::mem::take(&mut st.pulse);
-                st.tx.force(i as usize, 0, &pulse, scale, 0);
-                st.pulse = pulse;
-            }
-            output.impacts.push((st.clock as f64 / fs, key.0, key.1));
-        } else if tangential > 0.02 {
-            // Rubbing: white noise over the frame.
-            let m = n.min(st.noise.len());
-            let mut r = st.rng;
-            for v in &mut st.noise[..m] {
-                r ^= r << 13;
-                r ^= r >> 7;
-                r ^= r << 17;
-                *v = (((r >> 40) as f64 / (1u64 << 24) as f64 - 0.5) * 12f64.sqrt()) as f32;
-            }
-            st.rng = r;
-            let rms = s.roughness * normal_force * f64::from(tangential);
-            for i in targets.into_iter().flatten() {
-                let noise = std::mem::take(&mut st.noise);
-                st.tx.force(i as usize, 0, &noise[..m], rms, 0);
-                st.noise = noise;
+        let j = f64::from(f.total_force_magnitude) * dt_sub;
+        let e = frame.entry(key).or_insert((0.0, Vec3::ZERO, 0.0));
+        e.0 += j;
+        if f.max_force_magnitude >= e.2 {
+            e.2 = f.max_force_magnitude;
+            e.1 = f.max_force_direction;
+            if e.1 == Vec3::ZERO {
+                e.1 = f.total_force;
             }
         }
     }
-    st.touching = now;
+    let mut now = std::mem::take(&mut link.spare);
+    now.clear();
+    for (&key, &(impulse, direction, _)) in &frame {
+        let (Some(a), Some(b)) = (contact_side(&bodies, key.0), contact_side(&bodies, key.1))
+        else {
+            continue;
+        };
+        let normal_force = impulse / dt;
+        // The contact normal, from the first body towards the second.
+        let mut n = direction.normalize_or_zero();
+        if n.dot(b.position - a.position) < 0.0 {
+            n = -n;
+        }
+        let targets = [key.0, key.1].map(|e| link.source_of.get(&e).copied());
+        let (mut pair, first) = match link.touching.remove(&key) {
+            Some(p) => (p, false),
+            None => (PairContact::new(pair_offset(key)), true),
+        };
+        if first {
+            let before = |e: Entity, now: Vec3| link.before.get(&e).map_or(now, |v| v.linear);
+            let (b0, b1) = (before(key.0, a.linvel), before(key.1, b.linvel));
+            let approach = f64::from((b0 - b1).dot(n));
+            // The impulse from the pair's momentum change over the frame (the solver's force
+            // reports, summed over substeps, also carry position correction); the reported
+            // one where a mass is unknown.
+            let m_eff = if a.contact.mass_kg.is_infinite() {
+                b.contact.mass_kg
+            } else if b.contact.mass_kg.is_infinite() {
+                a.contact.mass_kg
+            } else {
+                a.contact.mass_kg * b.contact.mass_kg / (a.contact.mass_kg + b.contact.mass_kg)
+            };
+            let dv = f64::from(((b0 - b1) - (a.linvel - b.linvel)).dot(n));
+            let impulse = if m_eff.is_finite() && dv > 0.0 {
+                m_eff * dv
+            } else {
+                impulse
+            };
+            if is_impact(approach) {
+                if let Some((pulse, scale, at)) =
+                    impact_pulse([a.contact, b.contact], approach, impulse, 0.0, fs)
+                {
+                    for i in targets.into_iter().flatten() {
+                        link.tx.force(i as usize, 0, &pulse, scale, at);
+                    }
+                    output.impacts.push((link.clock as f64 / fs, key.0, key.1));
+                    output.impact_figures.push((approach, impulse));
+                }
+            }
+        } else {
+            // The contact points' velocities, each at its contact radius along the normal.
+            let at_contact = |s: &Side, r: Vec3| s.linvel + s.angvel.cross(r);
+            let va = at_contact(&a, n * a.contact.radius_m as f32);
+            let vb = at_contact(&b, -n * b.contact.radius_m as f32);
+            let rel = va - vb;
+            let slip = f64::from((rel - n * rel.dot(n)).length());
+            let tangential = |s: &Side| {
+                if s.contact.mass_kg.is_infinite() {
+                    0.0
+                } else {
+                    f64::from((s.linvel - n * s.linvel.dot(n)).length())
+                }
+            };
+            let moving = tangential(&a).max(tangential(&b));
+            if let Some((kind, speed)) = classify_persistent(slip, moving, normal_force) {
+                let roller = if a.contact.mass_kg.is_infinite() {
+                    &b
+                } else {
+                    &a
+                };
+                link.force.resize(n_samples, 0.0);
+                pair.continuous(
+                    kind,
+                    &link.profile,
+                    normal_force,
+                    speed,
+                    roller.contact.radius_m,
+                    fs,
+                    &mut link.force[..n_samples],
+                );
+                for i in targets.into_iter().flatten() {
+                    link.tx
+                        .force(i as usize, 0, &link.force[..n_samples], 1.0, 0);
+                }
+                match kind {
+                    ContactKind::Sliding => output.sliding_steps += 1,
+                    _ => output.rolling_steps += 1,
+                }
+            }
+        }
+        now.insert(key, pair);
+    }
+    link.spare = std::mem::replace(&mut link.touching, now);
+    link.frame = frame;
+    // Every rigid body reports its velocity and mass from the next frame on: a body without a
+    // Sounding still brings its approach speed and mass to a contact.
+    for e in &unmeasured {
+        commands
+            .entity(e)
+            .insert_if_new((Velocity::default(), ReadMassProperties::default()));
+    }
+    link.before.clear();
+    for (e, _, v, ..) in &bodies {
+        if let Some(v) = v {
+            link.before.insert(e, *v);
+        }
+    }
     if s.capture {
         if let Some(audio) = st.audio.as_mut() {
             let channels = audio.channels();
@@ -530,7 +644,7 @@ fn excite(
             }
             let start = output.channels[0].len();
             for c in &mut output.channels {
-                c.resize(start + n, 0.0);
+                c.resize(start + n_samples, 0.0);
             }
             match output.channels.as_mut_slice() {
                 [a] => audio.process(&mut [&mut a[start..]]),
@@ -539,7 +653,71 @@ fn excite(
             }
         }
     }
-    st.clock += n as u64;
+    st.clock += n_samples as u64;
+}
+
+/// What the plugin reads of a body in contact.
+type BodyParts = (
+    Entity,
+    &'static Transform,
+    Option<&'static Velocity>,
+    Option<&'static ReadMassProperties>,
+    Option<&'static RigidBody>,
+    Option<&'static Collider>,
+    Option<&'static ColliderMassProperties>,
+    Option<&'static Sounding>,
+);
+
+/// One side of a contact: what the shared contact model needs, and its motion.
+struct Side {
+    contact: ContactBody,
+    position: Vec3,
+    linvel: Vec3,
+    angvel: Vec3,
+}
+
+fn contact_side(bodies: &Query<BodyParts>, e: Entity) -> Option<Side> {
+    let (_, t, v, mass, rb, collider, props, snd) = bodies.get(e).ok()?;
+    let dynamic = matches!(rb, Some(RigidBody::Dynamic) | None);
+    // rapier's mass, else the collider's (a body spawned this frame has none reported yet);
+    // a body with neither is taken as immovable.
+    let from_collider = || {
+        let c = collider?;
+        let m = match props.copied().unwrap_or_default() {
+            ColliderMassProperties::Density(d) => c.raw.mass_properties(d).mass(),
+            ColliderMassProperties::Mass(m) => m,
+            ColliderMassProperties::MassProperties(p) => p.mass,
+        };
+        (m > 0.0).then_some(f64::from(m))
+    };
+    let mass_kg = match (dynamic, mass) {
+        (false, _) => f64::INFINITY,
+        (true, Some(m)) if m.get().mass > 0.0 => f64::from(m.get().mass),
+        (true, _) => from_collider().unwrap_or(f64::INFINITY),
+    };
+    let radius_m = collider.map_or(0.01, |c| match c.as_ball() {
+        Some(b) => f64::from(b.radius()).max(1e-4),
+        None => {
+            let e = c.raw.compute_local_aabb().extents();
+            radius_from_extents([e.x, e.y, e.z].map(f64::from))
+        }
+    });
+    let v = v.copied().unwrap_or_default();
+    Some(Side {
+        contact: ContactBody {
+            mass_kg,
+            radius_m,
+            elastic: snd.map_or(SILENT_ELASTIC, |s| s.elastic),
+        },
+        position: t.translation,
+        linvel: v.linear,
+        angvel: v.angular,
+    })
+}
+
+/// Where a pair starts along the rough profile (pairs do not rub in unison), m.
+fn pair_offset(key: (Entity, Entity)) -> f64 {
+    (key.0.index_u32() as f64 * 7.31 + key.1.index_u32() as f64 * 3.17) % 10.0
 }
 
 /// A headless scene for examples and tests: a fixed table and `heights.len()` bars of the

@@ -2,13 +2,20 @@
 //! fall quiet at rest.
 #![allow(clippy::unwrap_used)]
 
+use resound::synth::excitation::Elastic;
 use resound_bevy::{drop_scene, Sounding};
+
+const ALUMINIUM: Elastic = Elastic {
+    youngs_modulus: 70e9,
+    poisson_ratio: 0.33,
+};
 
 fn sound() -> Sounding {
     Sounding {
         modes: vec![(820.0, 12.0), (2270.0, 20.0), (4450.0, 35.0)],
         gains: vec![0.05, 0.03, 0.02],
         radiation: None,
+        elastic: ALUMINIUM,
     }
 }
 
@@ -131,6 +138,7 @@ fn spawn_run(listener: [f32; 3]) -> (Vec<f32>, f64, f64) {
         modes: vec![(1500.0, 4.0)],
         gains: vec![0.05],
         radiation: None,
+        elastic: ALUMINIUM,
     };
     drop_scene::spawn_bar(app.world_mut(), &bell, 0.3, 0.3);
     let out = drop_scene::run(&mut app, 1.0);
@@ -314,4 +322,71 @@ fn a_radiating_body_is_heard_by_its_transfer_in_its_own_frame() {
         "factors {lo:.3e}..{hi:.3e}: too alike to tell"
     );
     assert!(sensitive, "the bar's turn changes no factor");
+}
+
+/// The bar of [`drop_scene`] dropped from `h` m onto its table, as a scene file.
+fn drop_scene_file(h: f64) -> String {
+    let [x, y, z] = drop_scene::BAR.map(|v| 2.0 * f64::from(v));
+    format!(
+        "duration = 0.6\nseed = 1\n[listener]\nposition = [0.0, 0.5, 0.3]\n\
+         [[body]]\nname = \"table\"\nfixed = true\nshape = {{ box = [2.0, 0.1, 2.0] }}\n\
+         material = \"preset:wood\"\ndensity = 700\nposition = [0.0, -0.05, 0.0]\n\
+         restitution = 0.3\nsound = false\n\
+         [[body]]\nname = \"bar\"\nshape = {{ box = [{x}, {y}, {z}] }}\n\
+         material = \"preset:aluminium\"\ndensity = 2700\nposition = [-0.3, {}, 0.0]\n\
+         restitution = 0.3\nmodes = 6\n",
+        h + 0.5 * y
+    )
+}
+
+#[test]
+fn a_game_and_the_same_scene_offline_excite_the_same_impact() {
+    // One contact model (resound::physics::contact) for both: the bar's first impact has the
+    // same approach speed and solver impulse in Bevy (60 frames/s, 4 substeps) as in the
+    // offline scene, and both are the free fall's: v = √(2gh), m·v ≲ J ≤ m·v·(1 + e).
+    let h = 0.3;
+    let mut app = drop_scene::app(&sound(), &[h as f32]);
+    let game = drop_scene::run(&mut app, 0.6);
+    let (v_game, j_game) = game.impact_figures[0];
+    let offline = resound::scene::render_scene_text(
+        &drop_scene_file(h),
+        "drop",
+        std::path::Path::new("."),
+        &resound::scene::SceneRenderParams::default(),
+        &|_| {},
+        &|_| {},
+    )
+    .unwrap();
+    let first = offline
+        .events
+        .iter()
+        .find(|e| e.kind == resound::physics::ContactKind::Impact)
+        .unwrap();
+    let (v_scene, j_scene) = (first.speed_m_s, first.force);
+    let v_fall = (2.0 * 9.81 * h).sqrt();
+    let [x, y, z] = drop_scene::BAR.map(|v| 2.0 * f64::from(v));
+    let j_fall = 2700.0 * x * y * z * v_fall * 1.3;
+    // The game sees the approach of the frame before (up to g/60 = 0.16 m/s slow) and takes
+    // the impulse from the bar's momentum change over the frame; the offline scene takes the
+    // solver's impulse of its first step in touch. Either stops the bar (m·v) and at most
+    // bounces it back (m·v·(1 + e)); the rebound may follow as contact.
+    let stop = j_fall / 1.3;
+    for (what, v, j) in [("game", v_game, j_game), ("scene", v_scene, j_scene)] {
+        assert!(
+            (v / v_fall - 1.0).abs() < 0.08,
+            "{what}: {v} m/s vs {v_fall}"
+        );
+        assert!(
+            j > 0.8 * stop && j < 1.05 * j_fall,
+            "{what}: {j} N·s vs {stop}–{j_fall}"
+        );
+    }
+    assert!(
+        (v_game / v_scene - 1.0).abs() < 0.08,
+        "{v_game} vs {v_scene} m/s"
+    );
+    assert!(
+        (j_game / j_scene - 1.0).abs() < 0.15,
+        "{j_game} vs {j_scene} N·s"
+    );
 }

@@ -6,13 +6,13 @@ use clap::{Args, Subcommand};
 use resound::core::{Material, ModalModel};
 use resound::io::library::{read_material, write_material};
 use resound::material::{
-    estimate_material_from, estimate_plot, library_material as get, list_materials, open_library,
-    read_library, take_tick_count, EstimateMaterialParams, Origin, TakeInput,
+    check_name_free, estimate_material_from, estimate_plot, library_material as get,
+    list_materials, open_library, read_library, store_material, take_tick_count,
+    EstimateMaterialParams, Origin, TakeInput,
 };
 use resound::object::{load_object, ObjectParams};
 use resound::recording::{analyze_takes, TakeSelection};
 use resound::signal::AnalyzeParams;
-use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `estimate`.
@@ -120,37 +120,6 @@ pub fn snap(model: &ModalModel, query: [f64; 3]) -> Result<resound::core::Hit> {
     Ok(hit)
 }
 
-#[derive(Serialize)]
-struct Output<'a> {
-    name: &'a str,
-    alpha: f64,
-    beta: f64,
-    gamma: f64,
-    sigma: f64,
-    metric: f64,
-    elapsed_s: f64,
-    starts: usize,
-    evaluations: usize,
-    reference_modes: usize,
-    /// How sure the estimate is.
-    fit: &'a resound::estimate::report::FitReport,
-    /// The strike analysed (counting from 1) and why.
-    strike: usize,
-    strike_reason: &'a str,
-    warnings: &'a [String],
-    /// Each recording's part (several recordings).
-    #[serde(skip_serializing_if = "<[_]>::is_empty")]
-    takes: &'a [resound::material::TakeReport],
-    /// The recordings' own estimates' relative spread (several recordings).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    spread: Option<resound::material::TakeSpread>,
-    /// The microphone the forward model radiated to (`--mic`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    mic: Option<[f64; 3]>,
-    /// Estimates run (more than one with `--mic`: the radiation follows γ).
-    passes: usize,
-}
-
 /// Runs `estimate`.
 pub fn run(a: EstimateArgs) -> Result<()> {
     let query = parse_vec3(&a.hit)?;
@@ -164,10 +133,8 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     let mut inputs: Vec<&Path> = a.audio.iter().map(|p| p.as_path()).collect();
     inputs.push(&a.mesh);
     crate::util::check_paths(&inputs, &outs)?;
-    if let (Some(name), Some(lib)) = (&a.name, read_library(a.library.as_deref())?) {
-        if lib.get(name)?.is_some() && !a.force {
-            bail!("the library already has a material named {name:?}; pass --force to replace it");
-        }
+    if let Some(name) = &a.name {
+        check_name_free(a.library.as_deref(), name, a.force).map_err(force_hint)?;
     }
     let name = a.name.clone().unwrap_or_else(|| {
         a.audio[0]
@@ -195,7 +162,6 @@ pub fn run(a: EstimateArgs) -> Result<()> {
         warn_all(&t.analysis.warnings);
     }
     let analysis = &analysed[0].analysis;
-    let analysis_strike = (analysis.strike + 1, analysis.strike_reason.clone());
     let mut model = load_model(&a.mesh, a.scale, a.modes, &a.reference_material)?;
     if mic.is_some() && model.transfer.is_none() {
         // Fitted once here, for the estimate and its picture.
@@ -215,8 +181,9 @@ pub fn run(a: EstimateArgs) -> Result<()> {
         );
         if info.poorly_fitted > 0 {
             eprintln!(
-                "warning: the acoustic transfer fits {} modes poorly (misfit > 0.9)",
-                info.poorly_fitted
+                "warning: the acoustic transfer fits {} modes poorly (misfit > {})",
+                info.poorly_fitted,
+                resound::core::limits::POOR_TRANSFER_MISFIT
             );
         }
     }
@@ -271,30 +238,11 @@ pub fn run(a: EstimateArgs) -> Result<()> {
         )?;
     }
     if a.name.is_some() {
-        open_library(a.library.as_deref())?.put(&material)?;
+        store_material(a.library.as_deref(), &material, a.force).map_err(force_hint)?;
     }
     let p = &info.params;
     if a.json {
-        return print_json(&Output {
-            name: &name,
-            alpha: p.alpha,
-            beta: p.beta,
-            gamma: p.gamma,
-            sigma: p.sigma,
-            metric: info.metric,
-            elapsed_s: info.elapsed_s,
-            starts: info.starts,
-            evaluations: info.evaluations,
-            reference_modes: info.reference_modes,
-            fit: &info.fit,
-            strike: analysis_strike.0,
-            strike_reason: &analysis_strike.1,
-            warnings: &info.warnings,
-            takes: &info.takes,
-            spread: info.spread,
-            mic: info.mic,
-            passes: info.passes,
-        });
+        return print_json(&info);
     }
     println!(
         "{name}: alpha {:.4e} 1/s, beta {:.4e} s, gamma {:.4e} m²/s², sigma {:.4e}; metric {:.4e} ({} starts, {} evaluations, {:.1} s)",
@@ -337,7 +285,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             );
         }
     } else {
-        println!("{}", analysis_strike.1);
+        println!("{}", info.strike_reason);
     }
     Ok(())
 }
@@ -448,14 +396,7 @@ pub fn run_materials(c: MaterialsCmd) -> Result<()> {
         }
         MaterialsCmd::Import(a) => {
             let m = read_material(&a.file)?;
-            let mut lib = open_library(a.library.as_deref())?;
-            if lib.get(&m.name)?.is_some() && !a.force {
-                bail!(
-                    "the library already has a material named {:?}; pass --force to replace it",
-                    m.name
-                );
-            }
-            lib.put(&m)?;
+            store_material(a.library.as_deref(), &m, a.force).map_err(force_hint)?;
             eprintln!("imported {:?}", m.name);
         }
         MaterialsCmd::Export(a) => {
@@ -472,4 +413,12 @@ pub fn run_materials(c: MaterialsCmd) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// A library refusal, with the flag that overrides it.
+fn force_hint(e: resound::Error) -> anyhow::Error {
+    match e {
+        resound::Error::Exists(_) => anyhow::anyhow!("{e}; pass --force to replace it"),
+        e => e.into(),
+    }
 }

@@ -100,7 +100,7 @@ fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
     let material = load_sound_material(spec, &a.library)?;
     let model = load_model(mesh, 1.0, 200, "ceramic")?;
     let hit = snap(&model, parse_vec3(hit)?)?;
-    let gamma0 = model.material.youngs_modulus / model.material.density;
+    let gamma0 = model.gamma0();
     Ok(material.modes(&model.eigenvalues, &hit.gains, gamma0, 0.5 * fs))
 }
 

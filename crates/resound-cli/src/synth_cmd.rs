@@ -8,7 +8,6 @@ use resound::core::{Material, SoundMaterial};
 use resound::io::{write_wav, WavFormat};
 use resound::strike::{render_strike, StrikeInfo, StrikeParams, Struck};
 use resound::synth::excitation::ContactModel;
-use resound::synth::render::{normalize, CEILING};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -148,20 +147,14 @@ pub fn load_sound_material(spec: &str, library: &Option<PathBuf>) -> Result<Soun
 
 #[derive(Serialize)]
 struct Output<'a> {
+    /// The file written.
     output: String,
-    peak: f32,
-    gain_db: f32,
-    elapsed_s: f64,
     #[serde(flatten)]
     strike: &'a StrikeInfo,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    material: Option<&'a str>,
-    warnings: Vec<String>,
 }
 
 /// Runs `synth`.
 pub fn run(a: SynthArgs) -> Result<()> {
-    let t0 = std::time::Instant::now();
     let inputs: Vec<&Path> = a
         .mesh
         .iter()
@@ -172,18 +165,6 @@ pub fn run(a: SynthArgs) -> Result<()> {
     crate::util::check_paths(&inputs, &[&a.output])?;
     if (a.duration * f64::from(a.sample_rate)).round() < 1.0 {
         bail!("--duration {} s is shorter than one sample", a.duration);
-    }
-    if !(8000..=192_000).contains(&a.sample_rate) {
-        bail!(
-            "--sample-rate must be within 8000–192000 Hz, got {}",
-            a.sample_rate
-        );
-    }
-    if !(a.duration > 0.0 && a.duration <= 600.0) {
-        bail!("--duration must be in (0, 600] s, got {}", a.duration);
-    }
-    if !(a.velocity.is_finite() && a.velocity >= 0.0 && a.velocity < 1000.0) {
-        bail!("--velocity must be in [0, 1000) m/s, got {}", a.velocity);
     }
     let params = StrikeParams {
         speed_m_s: a.velocity,
@@ -196,21 +177,20 @@ pub fn run(a: SynthArgs) -> Result<()> {
         sample_rate_hz: a.sample_rate,
         mic_m: a.mic.as_deref().map(parse_vec3).transpose()?,
     };
-    let (mut strike, name) = match (&a.modes, &a.stats) {
+    let mut strike = match (&a.modes, &a.stats) {
         (Some(p), _) => {
             let modes = resound::files::load_modes(p)?;
-            (render_strike(Struck::Modes(&modes), &params)?, None)
+            render_strike(Struck::Modes(&modes), &params)?
         }
         (None, Some(p)) => {
             let stats = resound::files::load_stats(p)?;
-            let s = render_strike(
+            render_strike(
                 Struck::Stats {
                     stats: &stats,
                     seed: a.seed,
                 },
                 &params,
-            )?;
-            (s, Some(stats.material))
+            )?
         }
         (None, None) => {
             let (Some(spec), Some(mesh), Some(hit)) = (&a.material, &a.mesh, &a.hit) else {
@@ -226,24 +206,23 @@ pub fn run(a: SynthArgs) -> Result<()> {
                 hit: &hit,
                 same_object,
             };
-            (render_strike(struck, &params)?, Some(material.name.clone()))
+            render_strike(struck, &params)?
         }
     };
-    let level = normalize(&mut strike.samples, CEILING)?;
-    let mut warnings = strike.info.warnings.clone();
-    warnings.extend(level.quiet_warning());
-    crate::util::warn_all(&warnings);
-    if level.gain_db < 0.0 {
+    resound::strike::level_for_file(&mut strike)?;
+    let info = &strike.info;
+    crate::util::warn_all(&info.warnings);
+    if info.gain_db < 0.0 {
         eprintln!(
             "note: peak {:.2} of full scale; turned down by {:.1} dB to −1 dBFS (no clipping)",
-            level.peak_before, -level.gain_db
+            info.peak, -info.gain_db
         );
     }
     write_wav(&a.output, &strike.samples, a.sample_rate, a.format.into())?;
     if a.play {
         crate::live::play(
             &strike,
-            10f32.powf(level.gain_db / 20.0),
+            10f32.powf(strike.info.gain_db / 20.0),
             a.sample_rate,
             a.duration,
         )?;
@@ -251,12 +230,7 @@ pub fn run(a: SynthArgs) -> Result<()> {
     if a.json {
         return crate::util::print_json(&Output {
             output: a.output.display().to_string(),
-            peak: level.peak_before,
-            gain_db: level.gain_db,
-            elapsed_s: t0.elapsed().as_secs_f64(),
             strike: &strike.info,
-            material: name.as_deref(),
-            warnings,
         });
     }
     eprintln!(

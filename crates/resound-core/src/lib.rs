@@ -17,6 +17,7 @@
 
 pub mod damped;
 pub mod geometry;
+pub mod limits;
 pub mod material;
 pub mod modal_model;
 pub mod radiation;

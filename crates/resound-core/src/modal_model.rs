@@ -131,6 +131,22 @@ impl ModalModel {
         (0..self.n_modes()).map(|j| self.freq_hz(j)).collect()
     }
 
+    /// γ₀ = E/ρ of the reference material the eigenvalues belong to, m²/s² (Ren 2013 eq. 10:
+    /// a material of stiffness ratio γ has eigenvalues γ/γ₀ · λ).
+    pub fn gamma0(&self) -> f64 {
+        self.material.stiffness_density_ratio()
+    }
+
+    /// The natural frequencies, Hz, of this object made of a material with E/ρ = `gamma`
+    /// (m²/s²; same ν): the eigenvalues scaled by γ/γ₀.
+    pub fn freqs_hz_at(&self, gamma: f64) -> Vec<f64> {
+        let ratio = gamma / self.gamma0();
+        self.eigenvalues
+            .iter()
+            .map(|&l| units::lambda_to_freq_hz((l * ratio).max(0.0)))
+            .collect()
+    }
+
     /// Displacement of mode `j` at surface vertex `v` (1/√kg).
     pub fn shape(&self, j: usize, v: usize) -> [f32; 3] {
         let i = (j * self.n_vertices() + v) * 3;

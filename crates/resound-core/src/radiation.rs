@@ -18,10 +18,7 @@
 
 use num_complex::Complex64 as C64;
 
-/// Density of air at 20 °C and 101.325 kPa, kg/m³.
-pub const AIR_DENSITY_KG_M3: f64 = 1.204;
-/// Speed of sound in air at 20 °C, m/s.
-pub const SOUND_SPEED_M_S: f64 = 343.0;
+pub use crate::limits::{AIR_DENSITY_KG_M3, SPEED_OF_SOUND_M_S as SOUND_SPEED_M_S};
 
 /// The multipole coefficients of one mode on the frequency grid.
 #[derive(Clone, Debug, PartialEq)]

@@ -15,7 +15,7 @@
 use resound_core::DampedMode;
 
 /// Rayleigh damping and material parameters: C = αM + βK, γ = E/ρ, amplitude scale σ.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RayleighParams {
     /// Mass-proportional damping α, 1/s.
     pub alpha: f64,

@@ -23,7 +23,7 @@ use std::f64::consts::TAU;
 pub const PAIR_TOLERANCE: f64 = 0.03;
 
 /// The fit report of an estimate.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize, PartialEq)]
 pub struct FitReport {
     /// Recorded modes paired with an estimated one.
     pub paired_modes: usize,

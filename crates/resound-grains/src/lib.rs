@@ -195,8 +195,7 @@ impl Dictionary {
     /// [`GrainError::Dictionary`] naming the first inconsistency.
     pub fn validate(&self) -> Result<(), GrainError> {
         let bad = |m: String| Err(GrainError::Dictionary(m));
-        if !(self.sample_rate_hz.is_finite() && (8000.0..=192_000.0).contains(&self.sample_rate_hz))
-        {
+        if !resound_core::limits::sample_rate_ok(self.sample_rate_hz) {
             return bad(format!("sample rate {} Hz", self.sample_rate_hz));
         }
         for (i, g) in self.grains.iter().enumerate() {
@@ -338,10 +337,10 @@ pub fn analyze(
     params: &AnalyzeParams,
     progress: &(dyn Fn(Stage, f64) + Sync),
 ) -> Result<(Dictionary, AnalyzeInfo), GrainError> {
-    if !(sample_rate_hz.is_finite() && (8000.0..=192_000.0).contains(&sample_rate_hz)) {
-        return Err(GrainError::Param(format!(
-            "sample rate must be within 8000–192000 Hz, got {sample_rate_hz}"
-        )));
+    if !resound_core::limits::sample_rate_ok(sample_rate_hz) {
+        return Err(GrainError::Param(
+            resound_core::limits::sample_rate_message(sample_rate_hz),
+        ));
     }
     if recordings.is_empty() {
         return Err(GrainError::Input("no recordings".into()));

@@ -102,8 +102,9 @@ pub fn spectral_flux(x: &[f32], sample_rate_hz: f64, window_s: f64) -> (Vec<f64>
     let hop = w / 4;
     let frames = x.len().div_ceil(hop) + 1;
     let fft = RealFftPlanner::<f32>::new().plan_fft_forward(w);
-    let window: Vec<f32> = (0..w)
-        .map(|i| (0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / w as f64).cos()) as f32)
+    let window: Vec<f32> = resound_signal::stft::hann(w)
+        .into_iter()
+        .map(|v| v as f32)
         .collect();
     let bins = w / 2 + 1;
     let mut frame = fft.make_input_vec();

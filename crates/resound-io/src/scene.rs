@@ -98,7 +98,18 @@ pub struct SceneFile {
     #[serde(default)]
     pub floor: Option<FloorFile>,
     /// The bodies.
-    pub body: Vec<toml::Spanned<BodyFile>>,
+    pub body: Vec<BodyFile>,
+}
+
+/// A body's material: a reference (library name, material file, `preset:NAME`) or the material
+/// itself (a material document inline: scenes built in code pass their materials as values).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(untagged)]
+pub enum MaterialSpec {
+    /// A library name, a material file (relative to the scene) or `preset:NAME`.
+    Name(String),
+    /// The material document itself (validated like a material file).
+    Inline(Box<resound_core::SoundMaterial>),
 }
 
 /// The air between the bodies and the listener.
@@ -254,9 +265,10 @@ pub struct BodyFile {
     pub name: String,
     /// Shape.
     pub shape: ShapeFile,
-    /// Material: library name, material file, or `preset:NAME`. With `stats`, it only names
-    /// the elastic constants for Hertz contact (a preset name) and may be any of these.
-    pub material: String,
+    /// Material: library name, material file, or `preset:NAME` (or a material document
+    /// inline). With `stats`, it only names the elastic constants for Hertz contact (a preset
+    /// name) and may be any of these.
+    pub material: MaterialSpec,
     /// Sound from mode statistics (`resound stats`, a `.stats.json` file) instead of a modal
     /// model of the shape: one sampled impulse response per body, powers varied ±20 % over the
     /// surface (Traer 2019).
@@ -378,11 +390,11 @@ pub enum SceneFileError {
         message: String,
     },
     /// A value out of range.
-    #[error("{path}, line {line}: {field}: {message}")]
+    #[error("{path}{}: {field}: {message}", if *line == 0 { String::new() } else { format!(", line {line}") })]
     Invalid {
         /// File.
         path: String,
-        /// Line (1-based).
+        /// Line (1-based; 0 for a scene that came from no text, such as a Python dict).
         line: usize,
         /// Field (`body "ball".density`).
         field: String,
@@ -406,9 +418,52 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
         path: path.to_string(),
         message: e.to_string().trim_end().to_string(),
     })?;
-    let line_of = |offset: usize| text[..offset.min(text.len())].matches('\n').count() + 1;
+    validate_scene(scene, path, Some(text))
+}
+
+/// The byte ranges of each `[[body]]` table in scene text, in order (to the next table of
+/// bodies or the end).
+fn body_spans(text: &str) -> Vec<std::ops::Range<usize>> {
+    let mut starts = Vec::new();
+    let mut offset = 0;
+    for l in text.split_inclusive('\n') {
+        if l.trim_start().starts_with("[[body]]") {
+            starts.push(offset);
+        }
+        offset += l.len();
+    }
+    (0..starts.len())
+        .map(|k| starts[k]..starts.get(k + 1).copied().unwrap_or(text.len()))
+        .collect()
+}
+
+/// Validates a scene deserialized from any format (TOML text, a Python dict, JSON) with the
+/// scene file's rules and messages. `text`, when the scene came from text, lets errors name
+/// the line; without it they name the field alone (line 0).
+///
+/// # Errors
+/// A value out of range, named by its field.
+pub fn validate_scene(
+    scene: SceneFile,
+    path: &str,
+    text: Option<&str>,
+) -> Result<SceneFile, SceneFileError> {
+    let text_or_empty = text.unwrap_or("");
+    let line_of = |offset: usize| {
+        if text.is_none() {
+            return 0;
+        }
+        text_or_empty[..offset.min(text_or_empty.len())]
+            .matches('\n')
+            .count()
+            + 1
+    };
     let line_of_key = |key: &str| {
-        text.lines()
+        if text.is_none() {
+            return 0;
+        }
+        text_or_empty
+            .lines()
             .position(|l| l.trim_start().starts_with(key))
             .map_or(1, |i| i + 1)
     };
@@ -452,11 +507,11 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
             format!("must be in (0, 3600] s, got {}", scene.duration),
         ));
     }
-    if !(8000..=192_000).contains(&scene.sample_rate) {
+    if !resound_core::limits::sample_rate_ok(f64::from(scene.sample_rate)) {
         return Err(invalid(
             line_of_key("sample_rate"),
             "sample_rate".into(),
-            format!("must be within 8000–192000 Hz, got {}", scene.sample_rate),
+            resound_core::limits::sample_rate_message(f64::from(scene.sample_rate)),
         ));
     }
     if !(30.0..=4000.0).contains(&scene.steps_per_second) {
@@ -480,18 +535,23 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
         ));
     }
     if scene.body.is_empty() {
-        return Err(invalid(1, "body".into(), "the scene has no bodies".into()));
+        return Err(invalid(
+            line_of(0),
+            "body".into(),
+            "the scene has no bodies".into(),
+        ));
     }
     let mut names = std::collections::HashSet::new();
-    let starts: Vec<usize> = scene.body.iter().map(|b| b.span().start).collect();
-    for (bi, spanned) in scene.body.iter().enumerate() {
-        // This body's text: from its table to the next body's (toml spans only the header).
-        let span = spanned.span().start..starts.get(bi + 1).copied().unwrap_or(text.len());
+    let spans = body_spans(text_or_empty);
+    for (bi, b) in scene.body.iter().enumerate() {
+        // This body's text: from its table to the next body's (an inline array of bodies has
+        // no table of its own: its lines are the scene's first).
+        let span = spans.get(bi).cloned().unwrap_or(0..0);
         let body_line = line_of(span.start);
-        let b = spanned.get_ref();
         // The line of `key = …` within this body's table, else the table's first line.
         let key_line = |key: &str| {
-            let region = &text[span.start.min(text.len())..span.end.min(text.len())];
+            let t = text_or_empty;
+            let region = &t[span.start.min(t.len())..span.end.min(t.len())];
             let mut offset = span.start;
             for l in region.split_inclusive('\n') {
                 let t = l.trim_start();
@@ -587,12 +647,20 @@ pub fn parse_scene(text: &str, path: &str) -> Result<SceneFile, SceneFileError> 
                 ));
             }
         }
-        if b.material.trim().is_empty() {
-            return Err(invalid(
-                key_line("material"),
-                field("material"),
-                "must name a material".into(),
-            ));
+        match &b.material {
+            MaterialSpec::Name(n) if n.trim().is_empty() => {
+                return Err(invalid(
+                    key_line("material"),
+                    field("material"),
+                    "must name a material".into(),
+                ));
+            }
+            MaterialSpec::Inline(m) => {
+                if let Err(e) = m.validate() {
+                    return Err(invalid(key_line("material"), field("material"), e));
+                }
+            }
+            MaterialSpec::Name(_) => {}
         }
         let vectors = [
             ("position", b.position),
@@ -660,7 +728,7 @@ position = [0, 0.3, 0]
     fn a_good_scene_parses_with_defaults() {
         let s = parse_scene(GOOD, "s.toml").unwrap();
         assert_eq!(s.body.len(), 2);
-        let ball = s.body[1].get_ref();
+        let ball = &s.body[1];
         assert_eq!(ball.shape, ShapeFile::Sphere(0.02));
         assert_eq!(
             (ball.modes, ball.restitution, s.sample_rate),
@@ -678,14 +746,14 @@ position = [0, 0.3, 0]
             "s.toml",
         )
         .unwrap();
-        assert_eq!(s.body[1].get_ref().stats_file(), Some("m.stats.json"));
+        assert_eq!(s.body[1].stats_file(), Some("m.stats.json"));
         let s = parse_scene(
             &GOOD.replace("density = 7850", "density = 7850\nsound = false"),
             "s.toml",
         )
         .unwrap();
-        assert!(!s.body[1].get_ref().sounds());
-        assert!(s.body[0].get_ref().sounds() && s.body[0].get_ref().stats_file().is_none());
+        assert!(!s.body[1].sounds());
+        assert!(s.body[0].sounds() && s.body[0].stats_file().is_none());
         let s = parse_scene(
             &GOOD.replace(
                 "density = 7850",
@@ -694,10 +762,7 @@ position = [0, 0.3, 0]
             "s.toml",
         )
         .unwrap();
-        assert_eq!(
-            s.body[1].get_ref().grains_file(),
-            Some(("stone.grains", 0.5))
-        );
+        assert_eq!(s.body[1].grains_file(), Some(("stone.grains", 0.5)));
         let e = parse_scene(
             &GOOD.replace(
                 "density = 7850",

@@ -67,7 +67,7 @@ impl Default for TransferParams {
 }
 
 /// What [`fit_transfer`] did.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TransferInfo {
     /// Grid frequencies factorised.
     pub grid_points: usize,
@@ -338,7 +338,9 @@ pub fn fit_transfer(
         .filter(|(m, &f)| {
             let pos = n_oct * (f / p.grid_start_hz).log2() - f64::from(m.first);
             let i = (pos.round().max(0.0) as usize).min(m.residuals.len().saturating_sub(1));
-            m.residuals.get(i).is_some_and(|&r| r > 0.9)
+            m.residuals
+                .get(i)
+                .is_some_and(|&r| f64::from(r) > resound_core::limits::POOR_TRANSFER_MISFIT)
         })
         .count();
     let transfer = AcousticTransfer {

@@ -39,12 +39,12 @@
 
 #![warn(missing_docs)]
 
+pub mod contact;
 pub mod live;
 mod scene;
 
-pub use scene::{
-    simulate, ContactKind, Event, Excitation, SceneOutput, ScenePhysics, SceneSources, SceneStats,
-};
+pub use contact::ContactKind;
+pub use scene::{simulate, Event, Excitation, SceneOutput, ScenePhysics, SceneSources, SceneStats};
 
 use resound_synth::excitation::Elastic;
 

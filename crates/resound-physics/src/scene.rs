@@ -1,12 +1,15 @@
 //! The simulation loop: rapier steps, contact classification, excitation, rendering.
 
+use crate::contact::{
+    classify_persistent, impact_pulse, is_impact, radius_from_extents, scene_profile, ContactBody,
+    ContactKind, PairContact, SILENT_ELASTIC,
+};
 use crate::{BodySpec, SceneError, SceneParams, Shape};
 use rapier3d::parry::query::distance;
 use rapier3d::prelude::*;
 use resound_grains::player::GrainPlayer;
 use resound_grains::Contact;
-use resound_synth::contact::{ContactForce, Profile, ROUGHNESS};
-use resound_synth::excitation::{ContactModel, Impact};
+use resound_synth::contact::Profile;
 use resound_synth::radiation::Radiator;
 use resound_synth::scene_audio::{
     scene_audio, AudioStats, Cue, CueSender, SceneAudio, SceneAudioParams, Source,
@@ -15,12 +18,6 @@ use serde::Serialize;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-/// Approach speed below which a new contact is not an impact, m/s.
-const IMPACT_MIN_SPEED: f64 = 0.02;
-/// Slip speed below which a contact does not slide, m/s.
-const SLIP_MIN_SPEED: f64 = 0.01;
-/// Speed below which a contact rests, m/s.
-const MOVE_MIN_SPEED: f64 = 0.02;
 /// Force ring per body, samples.
 const FORCE_RING: usize = 1 << 14;
 /// Fastest initial speed of a body, m/s (three times the speed of sound).
@@ -35,18 +32,6 @@ const MAX_DELAY_S: f64 = 1.0;
 const FORCE_PULSE_SAMPLES: usize = 2048;
 /// Continuous contacts are logged at most this often, s.
 const LOG_INTERVAL_S: f64 = 0.05;
-
-/// What kind of contact an event is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ContactKind {
-    /// A new contact: a force pulse.
-    Impact,
-    /// A persistent contact with slip.
-    Sliding,
-    /// A persistent moving contact without slip.
-    Rolling,
-}
 
 /// One line of the event log.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -116,13 +101,6 @@ pub struct Excitation {
     pub delay: usize,
     /// Time of the excitation, s.
     pub time_s: f64,
-}
-
-#[derive(Default)]
-struct PairState {
-    force: ContactForce,
-    last_log_s: f64,
-    last_kind: Option<ContactKind>,
 }
 
 fn v3(a: [f64; 3]) -> Vector {
@@ -256,7 +234,7 @@ fn collider(b: &BodySpec, index: usize) -> Result<ColliderBuilder, SceneError> {
 fn contact_radius(s: &Shape) -> f64 {
     match s {
         Shape::Ball(r) => *r,
-        Shape::Cuboid(h) => 0.5 * h.iter().copied().fold(f64::INFINITY, f64::min),
+        Shape::Cuboid(h) => radius_from_extents(h.map(|x| 2.0 * x)),
         Shape::Cylinder { radius, .. } => *radius,
         Shape::ConvexHull(p) | Shape::TriMesh { vertices: p, .. } => {
             let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
@@ -266,7 +244,7 @@ fn contact_radius(s: &Shape) -> f64 {
                     hi[c] = hi[c].max(q[c]);
                 }
             }
-            0.25 * (0..3).map(|c| hi[c] - lo[c]).fold(f64::INFINITY, f64::min)
+            radius_from_extents([0, 1, 2].map(|c| hi[c] - lo[c]))
         }
     }
     .max(1e-4)
@@ -461,10 +439,10 @@ fn contact_loss(a: &BodySpec, b: &BodySpec, normal_force: f64, weight: f64) -> f
 
 /// Classifies rapier's contact pairs after each step — impacts (timed within the step, shaped
 /// by Hertz, carrying the solver impulse), sliding, rolling, resting — and turns them into
-/// [`Excitation`]s with the force models of `resound_synth::contact`.
+/// [`Excitation`]s with the shared contact model ([`crate::contact`]).
 struct ContactTracker {
-    active: HashMap<(u32, u32), PairState>,
-    spare: HashMap<(u32, u32), PairState>,
+    active: HashMap<(u32, u32), PairContact>,
+    spare: HashMap<(u32, u32), PairContact>,
     profile: Profile,
     radii: Vec<f64>,
     dt: f64,
@@ -542,12 +520,7 @@ impl ContactTracker {
             let (mut state, was_active) = match self.active.remove(&key) {
                 Some(s) => (s, true),
                 None => (
-                    PairState {
-                        force: ContactForce::new(
-                            (key.0 as f64 * 7.31 + key.1 as f64 * 3.17) % 10.0,
-                        ),
-                        ..PairState::default()
-                    },
+                    PairContact::new((key.0 as f64 * 7.31 + key.1 as f64 * 3.17) % 10.0),
                     false,
                 ),
             };
@@ -556,7 +529,7 @@ impl ContactTracker {
             let names = || [bodies[i1].name.clone(), bodies[i2].name.clone()];
             if !was_active {
                 state.last_kind = Some(ContactKind::Impact);
-                if approach > IMPACT_MIN_SPEED {
+                if is_impact(approach) {
                     // The instant of contact: the gap at the previous poses over the approach.
                     let gap = distance(
                         &(prev[i1].0 * c1.position_wrt_parent().copied().unwrap_or(Pose::IDENTITY)),
@@ -567,12 +540,20 @@ impl ContactTracker {
                     .map_or(0.0, |d| f64::from(d.distance).max(0.0));
                     let frac = (gap / (approach * dt)).clamp(0.0, 1.0);
                     let t_contact = t_start + frac * dt;
-                    if let Some((pulse, scale, at_sample)) = hertz_pulse(
-                        world,
-                        bodies,
-                        handles,
-                        [self.radii[i1], self.radii[i2]],
-                        [i1, i2],
+                    let side = |i: usize| ContactBody {
+                        mass_kg: if bodies[i].fixed {
+                            f64::INFINITY
+                        } else {
+                            f64::from(world.bodies[handles[i]].mass())
+                        },
+                        radius_m: self.radii[i],
+                        elastic: bodies[i]
+                            .sound
+                            .as_ref()
+                            .map_or(SILENT_ELASTIC, |s| s.elastic),
+                    };
+                    if let Some((pulse, scale, at_sample)) = impact_pulse(
+                        [side(i1), side(i2)],
                         approach,
                         impulse,
                         t_contact * fs - s0 as f64,
@@ -626,15 +607,7 @@ impl ContactTracker {
                     }
                 };
                 let moving = speed_of(i1).max(speed_of(i2));
-                let kind = if slip > SLIP_MIN_SPEED && slip > 0.1 * moving {
-                    Some((ContactKind::Sliding, slip))
-                } else if moving > MOVE_MIN_SPEED {
-                    Some((ContactKind::Rolling, moving))
-                } else {
-                    None
-                };
-                // Force amplitudes far below a micronewton are inaudible: no excitation.
-                let kind = kind.filter(|&(_, speed)| ROUGHNESS * normal_force * speed > 1e-6);
+                let kind = classify_persistent(slip, moving, normal_force);
                 if let Some((k, speed)) = kind {
                     let c = if k == ContactKind::Rolling {
                         Contact::Rolling
@@ -684,25 +657,16 @@ impl ContactTracker {
                 } else if let Some((kind, speed)) = kind {
                     let mut step_force = out.force_buffer();
                     step_force.resize(n, 0.0f32);
-                    if kind == ContactKind::Sliding {
-                        state.force.sliding(
-                            &self.profile,
-                            normal_force,
-                            speed,
-                            fs,
-                            &mut step_force,
-                        );
-                    } else {
-                        let roller = if bodies[i1].fixed { i2 } else { i1 };
-                        state.force.rolling(
-                            &self.profile,
-                            normal_force,
-                            speed,
-                            self.radii[roller],
-                            fs,
-                            &mut step_force,
-                        );
-                    }
+                    let roller = if bodies[i1].fixed { i2 } else { i1 };
+                    state.continuous(
+                        kind,
+                        &self.profile,
+                        normal_force,
+                        speed,
+                        self.radii[roller],
+                        fs,
+                        &mut step_force,
+                    );
                     out.excite_both(
                         [i1, i2],
                         point,
@@ -794,10 +758,10 @@ impl ScenePhysics {
                 params.duration_s
             )));
         }
-        if !(8000.0..=192_000.0).contains(&fs) {
-            return Err(SceneError::Setting(format!(
-                "sample rate must be within 8000–192000 Hz, got {fs}"
-            )));
+        if !resound_core::limits::sample_rate_ok(fs) {
+            return Err(SceneError::Setting(
+                resound_core::limits::sample_rate_message(fs),
+            ));
         }
         if !(30.0..=4000.0).contains(&params.steps_per_s) {
             return Err(SceneError::Setting(format!(
@@ -936,7 +900,7 @@ impl ScenePhysics {
         let tracker = ContactTracker {
             active: HashMap::new(),
             spare: HashMap::new(),
-            profile: Profile::fractal(1 << 17, 1.0, params.seed),
+            profile: scene_profile(params.seed),
             radii: kept.iter().map(|b| contact_radius(&b.shape)).collect(),
             dt,
             fs,
@@ -1279,68 +1243,6 @@ pub fn simulate(
 /// Steps in the queues at once in an offline run on two cores: the one being rendered and the
 /// one being simulated.
 const PIPELINE_AHEAD: usize = 2;
-
-/// The force pulse of an impact between bodies `pair` approaching at `approach` m/s: Hertz's
-/// shape for their materials, reduced mass and the smaller contact radius, scaled to carry
-/// rapier's solver `impulse` (restitution included), starting `at` samples (fractional) into
-/// the step. Returns the pulse, its scale and its first whole sample.
-fn hertz_pulse(
-    world: &PhysicsWorld,
-    bodies: &[BodySpec],
-    handles: &[RigidBodyHandle],
-    radii: [f64; 2],
-    pair: [usize; 2],
-    approach: f64,
-    impulse: f64,
-    at: f64,
-    fs: f64,
-) -> Option<(Vec<f32>, f64, usize)> {
-    let [i1, i2] = pair;
-    let mass = |i: usize| {
-        if bodies[i].fixed {
-            f64::INFINITY
-        } else {
-            f64::from(world.bodies[handles[i]].mass())
-        }
-    };
-    let (m1, m2) = (mass(i1), mass(i2));
-    let m_eff = if m1.is_infinite() {
-        m2
-    } else if m2.is_infinite() {
-        m1
-    } else {
-        m1 * m2 / (m1 + m2)
-    };
-    let elastic = |i: usize| {
-        bodies[i].sound.as_ref().map_or(
-            resound_synth::excitation::Elastic {
-                youngs_modulus: 1e9,
-                poisson_ratio: 0.3,
-            },
-            |s| s.elastic,
-        )
-    };
-    let imp = Impact {
-        impactor_mass_kg: m_eff.max(1e-9),
-        impactor_radius_m: radii[0].min(radii[1]),
-        impactor: elastic(i1),
-        object: elastic(i2),
-        object_mass_kg: None,
-        speed_m_s: approach,
-    };
-    let first = at.floor();
-    let offset = (at - first) / fs;
-    let pulse = imp
-        .force_pulse(ContactModel::Hertz, fs, offset.min(0.999_999 / fs))
-        .ok()?;
-    let j_pulse: f64 = pulse.iter().map(|&f| f64::from(f)).sum::<f64>() / fs;
-    let scale = if j_pulse > 0.0 {
-        impulse / j_pulse
-    } else {
-        0.0
-    };
-    Some((pulse, scale, first.max(0.0) as usize))
-}
 
 #[cfg(test)]
 mod tests {

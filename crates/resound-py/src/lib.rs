@@ -3,8 +3,10 @@
 //! Thin like the CLI: each function converts arguments, releases the GIL, calls one library
 //! function and converts the result. Shapes, dtypes and keyword conventions (`sample_rate`,
 //! float32 `(channels, samples)`) are settled in the Python half (`python/resound/`), so this
-//! side takes contiguous float64 arrays and returns float32 audio. Reports cross as JSON text
-//! (the very documents the CLI's `--json` prints), decoded in Python.
+//! side takes contiguous float64 arrays and returns float32 audio. Reports cross as Python
+//! dicts made by pythonize from the library's typed reports — the very structs the CLI's
+//! `--json` prints — and documents coming in (materials, scenes) are deserialized by
+//! pythonize straight into the library's types, so both front ends share one contract.
 
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2};
@@ -26,21 +28,167 @@ fn err(e: impl Into<anyhow::Error>) -> PyErr {
     ResoundError::new_err(format!("{:#}", e.into()))
 }
 
-fn json<T: serde::Serialize>(v: &T) -> PyResult<String> {
-    serde_json::to_string(v).map_err(err)
+/// A library report as Python values (dicts, lists, floats): the document `--json` prints.
+fn report<'py, T: serde::Serialize>(py: Python<'py>, v: &T) -> PyResult<Bound<'py, PyAny>> {
+    pythonize::pythonize(py, v).map_err(|e| ResoundError::new_err(format!("report: {e}")))
 }
 
-/// A material from a reference (library name, file, `preset:NAME`) or its JSON document.
-fn material(spec: &str, library: Option<&Path>) -> PyResult<SoundMaterial> {
-    if spec.trim_start().starts_with('{') {
-        let m: SoundMaterial = serde_json::from_str(spec)
-            .map_err(|e| ResoundError::new_err(format!("not a material: {e}")))?;
-        m.validate()
-            .map_err(|e| ResoundError::new_err(format!("material {:?}: {e}", m.name)))?;
-        return Ok(m);
+/// The serde name of a unit enum value (`legacy_table1`, `rolling`): what the JSON says.
+fn serde_name<T: serde::Serialize>(v: &T) -> String {
+    match serde_json::to_value(v) {
+        Ok(serde_json::Value::String(s)) => s,
+        _ => String::new(),
     }
+}
+
+fn checked(m: SoundMaterial) -> PyResult<SoundMaterial> {
+    m.validate()
+        .map_err(|e| ResoundError::new_err(format!("material {:?}: {e}", m.name)))?;
+    Ok(m)
+}
+
+/// A material from a reference (library name, file, `preset:NAME`).
+fn resolve(spec: &str, library: Option<&Path>) -> PyResult<SoundMaterial> {
     let lib = resound::material::read_library(library).map_err(err)?;
     resound::material::resolve_material(spec, Path::new("."), lib.as_ref()).map_err(err)
+}
+
+/// A material argument: a [`PyMaterial`], or a reference (str or path-like) to resolve.
+fn material_arg(obj: &Bound<'_, PyAny>, library: Option<&Path>) -> PyResult<SoundMaterial> {
+    if let Ok(m) = obj.cast::<PyMaterial>() {
+        return Ok(m.get().inner.clone());
+    }
+    match obj.extract::<PathBuf>() {
+        Ok(p) => resolve(&p.to_string_lossy(), library),
+        Err(_) => Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "a material is a Material, a library name, a file or 'preset:NAME', not {}",
+            obj.get_type().name()?
+        ))),
+    }
+}
+
+/// A sounding material (Ren 2013 §5): Rayleigh damping α (1/s) and β (s), γ = E/ρ (m²/s²),
+/// the amplitude scale σ, and what its document carries (damping model, residual,
+/// provenance). A value: equal when the documents are equal.
+#[pyclass(frozen, eq, skip_from_py_object, module = "resound", name = "Material")]
+#[derive(Clone, PartialEq)]
+struct PyMaterial {
+    inner: SoundMaterial,
+    origin: String,
+}
+
+impl PyMaterial {
+    fn new_from(inner: SoundMaterial, origin: &str) -> Self {
+        Self {
+            inner,
+            origin: origin.to_string(),
+        }
+    }
+}
+
+#[pymethods]
+impl PyMaterial {
+    /// A Rayleigh material from its four parameters (checked as a material file is).
+    #[new]
+    fn py_new(name: &str, alpha: f64, beta: f64, gamma: f64, sigma: f64) -> PyResult<Self> {
+        let m = SoundMaterial {
+            name: name.to_string(),
+            alpha,
+            beta,
+            gamma,
+            sigma,
+            damping_model: resound::core::DampingModel::default(),
+            caughey: Vec::new(),
+            mode_damping: Vec::new(),
+            provenance: None,
+            residual: None,
+        };
+        Ok(Self::new_from(checked(m)?, "document"))
+    }
+
+    /// A material by library name, file, built-in name or `preset:NAME`.
+    #[staticmethod]
+    #[pyo3(signature = (spec, library=None))]
+    fn load(spec: PathBuf, library: Option<PathBuf>) -> PyResult<Self> {
+        let m = resolve(&spec.to_string_lossy(), library.as_deref())?;
+        Ok(Self::new_from(m, "document"))
+    }
+
+    /// A material from its document as a dict (what [`to_dict`] gives), checked.
+    #[staticmethod]
+    fn from_dict(doc: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let m: SoundMaterial = pythonize::depythonize(doc)
+            .map_err(|e| ResoundError::new_err(format!("not a material: {e}")))?;
+        Ok(Self::new_from(checked(m)?, "document"))
+    }
+
+    /// A material from its JSON document (what `resound materials export` writes), checked.
+    #[staticmethod]
+    fn from_json(text: &str) -> PyResult<Self> {
+        let m: SoundMaterial = serde_json::from_str(text)
+            .map_err(|e| ResoundError::new_err(format!("not a material: {e}")))?;
+        Ok(Self::new_from(checked(m)?, "document"))
+    }
+
+    /// The material's document as a dict.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        report(py, &self.inner)
+    }
+
+    /// The material's JSON document (what `resound materials export` writes).
+    fn to_json(&self) -> PyResult<String> {
+        serde_json::to_string(&self.inner).map_err(err)
+    }
+
+    /// Name (the library key).
+    #[getter]
+    fn name(&self) -> &str {
+        &self.inner.name
+    }
+
+    /// Mass-proportional damping α, 1/s.
+    #[getter]
+    fn alpha(&self) -> f64 {
+        self.inner.alpha
+    }
+
+    /// Stiffness-proportional damping β, s.
+    #[getter]
+    fn beta(&self) -> f64 {
+        self.inner.beta
+    }
+
+    /// γ = E/ρ, m²/s².
+    #[getter]
+    fn gamma(&self) -> f64 {
+        self.inner.gamma
+    }
+
+    /// Amplitude scale σ.
+    #[getter]
+    fn sigma(&self) -> f64 {
+        self.inner.sigma
+    }
+
+    /// Where it was listed from (`builtin`, `library`, `estimated`, …; `document` otherwise).
+    #[getter]
+    fn origin(&self) -> &str {
+        &self.origin
+    }
+
+    /// How it was obtained (a dict), or None for presets.
+    #[getter]
+    fn provenance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        report(py, &self.inner.provenance)
+    }
+
+    fn __repr__(&self) -> String {
+        let m = &self.inner;
+        format!(
+            "Material({:?}, alpha={:.6e}, beta={:.6e}, gamma={:.6e}, sigma={:.6e})",
+            m.name, m.alpha, m.beta, m.gamma, m.sigma
+        )
+    }
 }
 
 fn modes_array<'py>(py: Python<'py>, modes: &[DampedMode]) -> PyResult<Bound<'py, PyArray2<f64>>> {
@@ -88,7 +236,7 @@ fn analyze_params(
     })
 }
 
-/// Analyses a recording file: (modes (n, 4), report JSON).
+/// Analyses a recording file: (modes (n, 4), report dict).
 #[pyfunction]
 #[pyo3(signature = (path, channel=None, strike=None, resample_hz=None, max_modes=64, min_db=60.0))]
 fn analyze_file<'py>(
@@ -99,7 +247,7 @@ fn analyze_file<'py>(
     resample_hz: Option<u32>,
     max_modes: usize,
     min_db: f64,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, String)> {
+) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyAny>)> {
     let params = analyze_params(strike, max_modes, min_db)?;
     let rec = resound::recording::RecordingParams {
         channel,
@@ -113,10 +261,10 @@ fn analyze_file<'py>(
             .map_err(anyhow::Error::from)
     });
     let report = report.map_err(err)?;
-    Ok((modes_array(py, &report.modes)?, json(&report)?))
+    Ok((modes_array(py, &report.modes)?, crate::report(py, &report)?))
 }
 
-/// Analyses samples (float64, one channel, full scale 1): (modes (n, 4), report JSON).
+/// Analyses samples (float64, one channel, full scale 1): (modes (n, 4), report dict).
 #[pyfunction]
 #[pyo3(signature = (samples, sample_rate, strike=None, max_modes=64, min_db=60.0))]
 fn analyze_array<'py>(
@@ -126,7 +274,7 @@ fn analyze_array<'py>(
     strike: Option<usize>,
     max_modes: usize,
     min_db: f64,
-) -> PyResult<(Bound<'py, PyArray2<f64>>, String)> {
+) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyAny>)> {
     let params = analyze_params(strike, max_modes, min_db)?;
     let x = samples.as_slice().map_err(err)?;
     let report = py
@@ -135,13 +283,15 @@ fn analyze_array<'py>(
                 .map(|a| resound::recording::AnalysisReport::new("<array>", "array", &a))
         })
         .map_err(err)?;
-    Ok((modes_array(py, &report.modes)?, json(&report)?))
+    Ok((modes_array(py, &report.modes)?, crate::report(py, &report)?))
 }
 
 /// A modal model: frequencies and surface mode shapes of an object (Ren 2013 §3).
 #[pyclass(frozen, module = "resound")]
 struct ModalModel {
     inner: Arc<resound::core::ModalModel>,
+    /// The file it came from (a material estimated on it names it, as the CLI's does).
+    source: String,
 }
 
 fn object_params(
@@ -149,9 +299,10 @@ fn object_params(
     modes: usize,
     reference_material: &str,
 ) -> PyResult<resound::object::ObjectParams> {
-    if modes == 0 || modes > 2000 {
+    let max = resound::core::limits::MAX_MODES;
+    if modes == 0 || modes > max {
         return Err(ResoundError::new_err(format!(
-            "modes must be within 1–2000, got {modes}"
+            "modes must be within 1–{max}, got {modes}"
         )));
     }
     Ok(resound::object::ObjectParams {
@@ -180,7 +331,10 @@ impl ModalModel {
         let m = py
             .detach(|| resound::object::load_object(&path, &params, &|_| {}))
             .map_err(err)?;
-        Ok(Self { inner: Arc::new(m) })
+        Ok(Self {
+            inner: Arc::new(m),
+            source: path.display().to_string(),
+        })
     }
 
     /// Solves a closed surface: vertices (n, 3) in m before `scale`, triangles (m, 3).
@@ -208,7 +362,21 @@ impl ModalModel {
         let m = py
             .detach(|| resound::object::solve_surface(&vs, &ts, &params, &|_| {}))
             .map_err(err)?;
-        Ok(Self { inner: Arc::new(m) })
+        Ok(Self {
+            inner: Arc::new(m),
+            source: String::new(),
+        })
+    }
+
+    /// The model's figures and modes (with the gains at `hit`, m): the document
+    /// `resound model FILE --json [--hit]` prints.
+    #[pyo3(signature = (hit=None))]
+    fn report<'py>(&self, py: Python<'py>, hit: Option<[f64; 3]>) -> PyResult<Bound<'py, PyAny>> {
+        let h = hit.map(|h| self.inner.hit(h)).transpose().map_err(err)?;
+        crate::report(
+            py,
+            &resound::object::ModalReport::new(&self.inner, None, h.as_ref()),
+        )
     }
 
     /// Writes the model to a `.rmodal` file (atomically).
@@ -246,10 +414,10 @@ impl ModalModel {
             .into_pyarray(py))
     }
 
-    /// The reference material of the solve (JSON: E, ν, ρ).
+    /// The reference material of the solve (a dict: E, ν, ρ).
     #[getter]
-    fn reference_material(&self) -> PyResult<String> {
-        json(&self.inner.material)
+    fn reference_material<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        report(py, &self.inner.material)
     }
 
     /// The undamped frequencies of an object of `material` (or the reference one), Hz.
@@ -257,23 +425,15 @@ impl ModalModel {
     fn frequencies_hz<'py>(
         &self,
         py: Python<'py>,
-        material: Option<&str>,
+        material: Option<&Bound<'py, PyAny>>,
         library: Option<PathBuf>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let m = &self.inner;
-        let ratio = match material {
-            None => 1.0,
-            Some(s) => {
-                let sm = crate::material(s, library.as_deref())?;
-                sm.gamma / (m.material.youngs_modulus / m.material.density)
-            }
+        let gamma = match material {
+            None => m.gamma0(),
+            Some(s) => material_arg(s, library.as_deref())?.gamma,
         };
-        let f: Vec<f64> = m
-            .eigenvalues
-            .iter()
-            .map(|&l| (l * ratio).max(0.0).sqrt() / std::f64::consts::TAU)
-            .collect();
-        Ok(PyArray1::from_vec(py, f))
+        Ok(PyArray1::from_vec(py, m.freqs_hz_at(gamma)))
     }
 
     /// Snaps `point` (m) to the surface: (surface point, distance m, gains per mode at it).
@@ -293,15 +453,15 @@ impl ModalModel {
     fn modes<'py>(
         &self,
         py: Python<'py>,
-        material: &str,
+        material: &Bound<'py, PyAny>,
         point: [f64; 3],
         max_freq_hz: f64,
         library: Option<PathBuf>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let sm = crate::material(material, library.as_deref())?;
+        let sm = material_arg(material, library.as_deref())?;
         let m = &self.inner;
         let h = m.hit(point).map_err(err)?;
-        let gamma0 = m.material.youngs_modulus / m.material.density;
+        let gamma0 = m.gamma0();
         modes_array(py, &sm.modes(&m.eigenvalues, &h.gains, gamma0, max_freq_hz))
     }
 
@@ -315,48 +475,45 @@ impl ModalModel {
     }
 }
 
-/// One material as JSON.
+/// One material by reference (library name, file, built-in name, `preset:NAME`).
 #[pyfunction]
 #[pyo3(signature = (spec, library=None))]
-fn get_material(spec: &str, library: Option<PathBuf>) -> PyResult<String> {
-    json(&material(spec, library.as_deref())?)
+fn get_material(spec: PathBuf, library: Option<PathBuf>) -> PyResult<PyMaterial> {
+    PyMaterial::load(spec, library)
 }
 
-/// Every material (library first, then built-ins) as JSON: [[material, origin], …].
+/// Every material (library first, then built-ins), each with its origin.
 #[pyfunction]
 #[pyo3(signature = (library=None))]
-fn list_materials(library: Option<PathBuf>) -> PyResult<String> {
+fn list_materials(library: Option<PathBuf>) -> PyResult<Vec<PyMaterial>> {
     let lib = resound::material::read_library(library.as_deref()).map_err(err)?;
     let all = resound::material::list_materials(lib.as_ref()).map_err(err)?;
-    let rows: Vec<(SoundMaterial, String)> = all
+    Ok(all
         .into_iter()
-        .map(|(m, o)| (m, format!("{o:?}").to_lowercase()))
-        .collect();
-    json(&rows)
+        .map(|(m, o)| PyMaterial::new_from(m, &serde_name(&o)))
+        .collect())
 }
 
-/// Saves a material (JSON) in the library under its name; refuses to replace one unless
-/// `replace`.
+/// Saves a material in the library under its name; refuses to replace one unless `replace`.
 #[pyfunction]
-#[pyo3(signature = (material_json, library=None, replace=false))]
-fn save_material(material_json: &str, library: Option<PathBuf>, replace: bool) -> PyResult<()> {
-    let m = material(material_json, None)?;
-    let mut lib = resound::material::open_library(library.as_deref()).map_err(err)?;
-    if !replace && lib.get(&m.name).map_err(err)?.is_some() {
-        return Err(ResoundError::new_err(format!(
-            "the library already has a material {:?}; pass replace=True to replace it",
-            m.name
-        )));
-    }
-    lib.put(&m).map_err(err)
+#[pyo3(signature = (material, library=None, replace=false))]
+fn save_material(material: &PyMaterial, library: Option<PathBuf>, replace: bool) -> PyResult<()> {
+    resound::material::store_material(library.as_deref(), &material.inner, replace).map_err(|e| {
+        match e {
+            resound::Error::Exists(_) => {
+                ResoundError::new_err(format!("{e}; pass replace=True to replace it"))
+            }
+            e => err(e),
+        }
+    })
 }
 
 /// Estimates a material from a recording (file, or float64 samples with `sample_rate`) of
-/// `model` struck at `hit`: (material JSON, report JSON).
+/// `model` struck at `hit`: (material, report dict).
 #[pyfunction]
 #[pyo3(signature = (model, hit, path=None, samples=None, sample_rate=None, channel=None, strike=None, name="estimated", residual=true, allow_implausible=false, mic=None))]
-fn estimate_material(
-    py: Python<'_>,
+fn estimate_material<'py>(
+    py: Python<'py>,
     model: &ModalModel,
     hit: [f64; 3],
     path: Option<PathBuf>,
@@ -368,7 +525,7 @@ fn estimate_material(
     residual: bool,
     allow_implausible: bool,
     mic: Option<[f64; 3]>,
-) -> PyResult<(String, String)> {
+) -> PyResult<(PyMaterial, Bound<'py, PyAny>)> {
     let ap = analyze_params(strike, 64, 60.0)?;
     let h = model.inner.hit(hit).map_err(err)?;
     let params = resound::material::EstimateMaterialParams {
@@ -379,6 +536,7 @@ fn estimate_material(
         recording_name: path
             .as_ref()
             .map_or("<array>".into(), |p| p.display().to_string()),
+        object_name: model.source.clone(),
         ..Default::default()
     };
     let slice = match &samples {
@@ -407,7 +565,7 @@ fn estimate_material(
         )?)
     });
     let (mat, info) = out.map_err(err)?;
-    Ok((json(&mat)?, json(&info)?))
+    Ok((PyMaterial::new_from(mat, "estimated"), report(py, &info)?))
 }
 
 fn strike_params(
@@ -429,12 +587,12 @@ fn strike_params(
     }
 }
 
-/// Renders a strike of an object of `material` at `hit`: (samples float32, info JSON).
+/// Renders a strike of an object of `material` at `hit`: (samples float32, info dict).
 #[pyfunction]
 #[pyo3(signature = (material, model, hit, speed_m_s=1.0, duration_s=1.0, sample_rate=48000, residual=true, impactor_mass_kg=None, impactor_radius_m=0.005, library=None, mic=None))]
 fn render_strike<'py>(
     py: Python<'py>,
-    material: &str,
+    material: &Bound<'py, PyAny>,
     model: &ModalModel,
     hit: [f64; 3],
     speed_m_s: f64,
@@ -445,8 +603,8 @@ fn render_strike<'py>(
     impactor_radius_m: f64,
     library: Option<PathBuf>,
     mic: Option<[f64; 3]>,
-) -> PyResult<(Bound<'py, PyArray1<f32>>, String)> {
-    let mat = crate::material(material, library.as_deref())?;
+) -> PyResult<(Bound<'py, PyArray1<f32>>, Bound<'py, PyAny>)> {
+    let mat = material_arg(material, library.as_deref())?;
     let h = model.inner.hit(hit).map_err(err)?;
     let mut p = strike_params(
         speed_m_s,
@@ -471,7 +629,7 @@ fn render_strike<'py>(
             )
         })
         .map_err(err)?;
-    Ok((s.samples.into_pyarray(py), json(&s.info)?))
+    Ok((s.samples.into_pyarray(py), report(py, &s.info)?))
 }
 
 /// Renders analysed modes (n, 4) as recorded, for the reference impact.
@@ -604,9 +762,14 @@ impl ModeStatistics {
             .collect())
     }
 
-    /// The statistics as JSON.
+    /// The statistics as JSON (the statistics file's document).
     fn to_json(&self) -> PyResult<String> {
-        json(&*self.inner)
+        serde_json::to_string(&*self.inner).map_err(err)
+    }
+
+    /// The statistics as a dict (the statistics file's document).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        report(py, &*self.inner)
     }
 
     fn __repr__(&self) -> String {
@@ -649,8 +812,8 @@ fn render_impact<'py>(
     Ok(s.samples.into_pyarray(py))
 }
 
-/// Renders a scene file: (audio (channels, samples) float32, sample rate, events JSON,
-/// summary JSON).
+/// Renders a scene file: (audio (channels, samples) float32, sample rate, events (list of
+/// dicts), summary dict).
 #[pyfunction]
 #[pyo3(signature = (path, library=None, keep_level=false))]
 fn render_scene<'py>(
@@ -658,7 +821,7 @@ fn render_scene<'py>(
     path: PathBuf,
     library: Option<PathBuf>,
     keep_level: bool,
-) -> PyResult<(Bound<'py, PyArray2<f32>>, u32, String, String)> {
+) -> SceneOut<'py> {
     let params = resound::scene::SceneRenderParams {
         library,
         keep_level,
@@ -765,12 +928,12 @@ fn grain_params(
 }
 
 /// Cuts recordings into grains and correlation patterns (Picard 2009) and saves the
-/// dictionary to `output`: its figures as JSON. `recordings` are file paths (a `kind:` prefix
+/// dictionary to `output`: its figures (a dict). `recordings` are file paths (a `kind:` prefix
 /// sets one's kind), or, with `arrays`, names of the mono float32 `arrays` at `sample_rate`.
 #[pyfunction]
 #[pyo3(signature = (recordings, output, arrays=None, sample_rate=None, kind="auto", kinds=None, min_db=-50.0, peaks=None, min_corr=0.5, prune=None), text_signature = "(recordings, output, arrays=None, sample_rate=None, kind='auto', kinds=None, min_db=-50.0, peaks=None, min_corr=0.5, prune=None)")]
-fn grains_analyze(
-    py: Python<'_>,
+fn grains_analyze<'py>(
+    py: Python<'py>,
     recordings: Vec<String>,
     output: PathBuf,
     arrays: Option<Vec<PyReadonlyArray1<'_, f32>>>,
@@ -781,7 +944,7 @@ fn grains_analyze(
     peaks: Option<usize>,
     min_corr: f64,
     prune: Option<f64>,
-) -> PyResult<String> {
+) -> PyResult<Bound<'py, PyAny>> {
     use resound::grain_files::{analyze_to_file, load_recordings, recording_from_samples};
     let rule = kind_rule(kind)?;
     let (recs, fs) = match arrays {
@@ -837,7 +1000,7 @@ fn grains_analyze(
     let made = py
         .detach(|| analyze_to_file(&recs, fs, &params, prune, &output, &|_, _| {}))
         .map_err(err)?;
-    json(&made)
+    report(py, &made)
 }
 
 /// A recording of a dictionary, by index or name.
@@ -875,19 +1038,16 @@ impl GrainDictionary {
         self.inner
             .recordings
             .iter()
-            .map(|r| {
-                (
-                    r.name.clone(),
-                    format!("{:?}", r.contact).to_lowercase(),
-                    r.samples,
-                )
-            })
+            .map(|r| (r.name.clone(), serde_name(&r.contact), r.samples))
             .collect()
     }
 
-    /// The dictionary's figures (grains, sizes, compression) as JSON.
-    fn summary(&self) -> PyResult<String> {
-        json(&resound::grain_files::summary(&self.inner, None).map_err(err)?)
+    /// The dictionary's figures (grains, sizes, compression): a dict.
+    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        report(
+            py,
+            &resound::grain_files::summary(&self.inner, None).map_err(err)?,
+        )
     }
 
     /// Rebuilds recording `recording` (index or name), time-scaled by `time_scale` and varied
@@ -928,20 +1088,20 @@ impl GrainDictionary {
     }
 }
 
-/// Renders a scene given as JSON (the scene file's fields; relative paths from `base_dir`):
+/// Renders a scene given as a dict of the scene file's fields (relative paths from
+/// `base_dir`), deserialized straight into the scene file's types and checked by its rules:
 /// as [`render_scene`].
 #[pyfunction]
-#[pyo3(signature = (scene_json, base_dir, library=None, keep_level=false))]
-fn render_scene_json<'py>(
+#[pyo3(signature = (scene, base_dir, library=None, keep_level=false))]
+fn render_scene_dict<'py>(
     py: Python<'py>,
-    scene_json: &str,
+    scene: &Bound<'py, PyAny>,
     base_dir: PathBuf,
     library: Option<PathBuf>,
     keep_level: bool,
-) -> PyResult<(Bound<'py, PyArray2<f32>>, u32, String, String)> {
-    let value: toml::Value = serde_json::from_str(scene_json)
-        .map_err(|e| ResoundError::new_err(format!("scene: {e}")))?;
-    let text = toml::to_string(&value).map_err(|e| ResoundError::new_err(format!("scene: {e}")))?;
+) -> SceneOut<'py> {
+    let scene: resound::io::scene::SceneFile =
+        pythonize::depythonize(scene).map_err(|e| ResoundError::new_err(format!("scene: {e}")))?;
     let params = resound::scene::SceneRenderParams {
         library,
         keep_level,
@@ -949,36 +1109,46 @@ fn render_scene_json<'py>(
     };
     let r = py
         .detach(|| {
-            resound::scene::render_scene_text(&text, "scene", &base_dir, &params, &|_| {}, &|_| {})
+            resound::scene::render_scene_value(scene, "scene", &base_dir, &params, &|_| {}, &|_| {})
         })
         .map_err(err)?;
     scene_out(py, r)
 }
 
-fn scene_out<'py>(
-    py: Python<'py>,
-    r: resound::scene::SceneRender,
-) -> PyResult<(Bound<'py, PyArray2<f32>>, u32, String, String)> {
+/// Audio (channels, samples), sample rate, events, summary.
+type SceneOut<'py> = PyResult<(
+    Bound<'py, PyArray2<f32>>,
+    u32,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+)>;
+
+fn scene_out<'py>(py: Python<'py>, r: resound::scene::SceneRender) -> SceneOut<'py> {
     let n = r.channels.first().map_or(0, Vec::len);
     let flat: Vec<f32> = r.channels.iter().flatten().copied().collect();
     let audio = Array2::from_shape_vec((r.channels.len(), n), flat)
         .map_err(err)?
         .into_pyarray(py);
-    Ok((audio, r.sample_rate_hz, json(&r.events)?, json(&r.summary)?))
+    Ok((
+        audio,
+        r.sample_rate_hz,
+        report(py, &r.events)?,
+        report(py, &r.summary)?,
+    ))
 }
 
-/// Runs shard `shard` of `shards` of a jobs file (`resound batch`): the run's figures as JSON.
+/// Runs shard `shard` of `shards` of a jobs file (`resound batch`): the run's figures (a dict).
 #[pyfunction]
 #[pyo3(signature = (jobs, out, shard=0, shards=1, library=None, cache=None))]
-fn batch(
-    py: Python<'_>,
+fn batch<'py>(
+    py: Python<'py>,
     jobs: PathBuf,
     out: PathBuf,
     shard: usize,
     shards: usize,
     library: Option<PathBuf>,
     cache: Option<PathBuf>,
-) -> PyResult<String> {
+) -> PyResult<Bound<'py, PyAny>> {
     let params = resound::batch::BatchParams {
         out_dir: out,
         shard: (shard, shards),
@@ -988,7 +1158,7 @@ fn batch(
     let info = py
         .detach(|| resound::batch::run_batch(&jobs, &params, &|_| {}))
         .map_err(err)?;
-    json(&info)
+    report(py, &info)
 }
 
 /// The version of the Rust library.
@@ -1015,7 +1185,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch, m)?)?;
     m.add_function(wrap_pyfunction!(render_scrape, m)?)?;
     m.add_function(wrap_pyfunction!(grains_analyze, m)?)?;
-    m.add_function(wrap_pyfunction!(render_scene_json, m)?)?;
+    m.add_function(wrap_pyfunction!(render_scene_dict, m)?)?;
+    m.add_class::<PyMaterial>()?;
     m.add_class::<GrainDictionary>()?;
     m.add_function(wrap_pyfunction!(version, m)?)?;
     Ok(())

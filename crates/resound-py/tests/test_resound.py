@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import resound
+from shapes import box
 
 REPO = Path(__file__).resolve().parents[3]
 ASSETS = REPO / "assets"
@@ -29,32 +30,6 @@ def own_library(tmp_path, monkeypatch):
 def cli(*args, cwd):
     env = dict(os.environ)
     return subprocess.run([CLI, *args], cwd=cwd, env=env, capture_output=True, text=True)
-
-
-def box(x=0.08, y=0.06, z=0.05):
-    """A closed box surface centred at the origin: vertices (8, 3), triangles (12, 3)."""
-    v = np.array([[sx * x / 2, sy * y / 2, sz * z / 2]
-                  for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    idx = lambda sx, sy, sz: (sx > 0) * 4 + (sy > 0) * 2 + (sz > 0)
-    t = []
-    for axis in range(3):
-        for s in (-1, 1):
-            corners = []
-            for a in (-1, 1):
-                for b in (-1, 1):
-                    c = [0, 0, 0]
-                    c[axis] = s
-                    o = [k for k in range(3) if k != axis]
-                    c[o[0]], c[o[1]] = a, b
-                    corners.append(idx(*c))
-            p00, p01, p10, p11 = corners
-            tri = [[p00, p10, p11], [p00, p11, p01]]
-            # Outward: (p10 - p00) x (p11 - p00) along +axis * s.
-            n = np.cross(v[p10] - v[p00], v[p11] - v[p00])
-            if n[axis] * s < 0:
-                tri = [[a, c, b] for a, b, c in tri]
-            t += tri
-    return v, np.array(t, dtype=np.uint32)
 
 
 def decaying(freqs, dampings, amps, fs, n, seed=1, noise=1e-5):
@@ -209,7 +184,7 @@ def test_a_strike_heard_at_a_microphone_is_estimated_with_it():
                                                       plain / np.max(abs(plain)), atol=1e-3)
     est, report = resound.estimate_material(x, big, hit, sample_rate=fs, residual=False,
                                             mic=mic)
-    assert report["mic"] == mic and report["passes"] >= 1
+    assert list(report["mic"]) == mic and report["passes"] >= 1
     assert abs(est.gamma / truth.gamma - 1) < 0.02
     with pytest.raises(resound.ResoundError, match="not finite"):
         resound.render_strike(truth, big, hit, duration_s=0.1, mic=[float("nan"), 0, 0])
@@ -505,7 +480,7 @@ def test_grains_from_arrays_rebuild_and_time_scale_their_recording(tmp_path):
     ratio = energy_times(slow) / energy_times(x)
     assert np.all(abs(ratio - 2.0) < 0.1), ratio
     assert 1.9 < len(slow) / len(x) < 2.05
-    assert json.loads(d.summary())["grains"] == info["grains"]
+    assert d.summary()["grains"] == info["grains"]
     with pytest.raises(resound.ResoundError, match="no recording 'nope'"):
         d.resynthesize("nope")
     with pytest.raises(resound.ResoundError, match="silent"):
@@ -524,7 +499,7 @@ def test_grains_from_a_real_file_match_the_cli(tmp_path):
     assert (tmp_path / "py.grains").read_bytes() == (tmp_path / "cli.grains").read_bytes()
     # An absurd analysis rate is refused before any resampling (it once asked for terabytes).
     for rate in (1e12, -5.0, float("nan")):
-        with pytest.raises(resound.ResoundError, match="8–384 kHz"):
+        with pytest.raises(resound.ResoundError, match="outside the supported 8000–192000 Hz"):
             resound.analyze_grains([ogg], tmp_path / "x.grains", sample_rate=rate)
 
 

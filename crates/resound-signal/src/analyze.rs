@@ -189,7 +189,7 @@ pub fn analyze(
     if let Some(i) = signal.iter().position(|v| !v.is_finite()) {
         return Err(AnalyzeError::NonFinite(i));
     }
-    if !(8000.0..=192_000.0).contains(&sample_rate_hz) {
+    if !resound_core::limits::sample_rate_ok(sample_rate_hz) {
         return Err(AnalyzeError::SampleRate(sample_rate_hz));
     }
     if !(params.min_db > 0.0 && params.min_db <= 200.0) {

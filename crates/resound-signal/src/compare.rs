@@ -83,10 +83,10 @@ pub fn log_mel_distance(
     sample_rate_hz: f64,
     params: &LogMelParams,
 ) -> Result<LogMelDistance, CompareError> {
-    if !(sample_rate_hz >= 8000.0 && sample_rate_hz.is_finite()) {
-        return Err(CompareError::Invalid(format!(
-            "sample rate {sample_rate_hz} Hz"
-        )));
+    if !resound_core::limits::sample_rate_ok(sample_rate_hz) {
+        return Err(CompareError::Invalid(
+            resound_core::limits::sample_rate_message(sample_rate_hz),
+        ));
     }
     if a.iter().chain(b).any(|v| !v.is_finite()) {
         return Err(CompareError::Invalid("a sample is not finite".into()));
@@ -202,9 +202,7 @@ fn mel_frames(
 ) -> Vec<f64> {
     let hop = size / 4;
     let fft = planner.plan_fft_forward(size);
-    let window: Vec<f64> = (0..size)
-        .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / size as f64).cos())
-        .collect();
+    let window = crate::stft::hann(size);
     let mut buf = fft.make_input_vec();
     let mut spec = fft.make_output_vec();
     let mut out = Vec::new();

@@ -11,8 +11,23 @@
 //! and subtraction (see [`crate::extract`]) are built on it.
 
 use realfft::num_complex::Complex64;
-use realfft::RealFftPlanner;
+use realfft::{RealFftPlanner, RealToComplex};
 use std::f64::consts::TAU;
+use std::sync::Arc;
+
+thread_local! {
+    /// One planner per thread: it keeps every plan it made, so a length is planned once per
+    /// thread however often spectrograms of it are computed (the estimator computes one per
+    /// objective evaluation).
+    static PLANNER: std::cell::RefCell<RealFftPlanner<f64>> =
+        std::cell::RefCell::new(RealFftPlanner::new());
+}
+
+/// The forward real FFT of `len` points, planned once per thread and length (every STFT of
+/// the analysis crates takes its plan here).
+pub fn forward_plan(len: usize) -> Arc<dyn RealToComplex<f64>> {
+    PLANNER.with(|p| p.borrow_mut().plan_fft_forward(len))
+}
 
 /// One level of the multi-level spectrogram: complex STFT values, frame-major.
 #[derive(Clone, Debug)]
@@ -45,8 +60,7 @@ impl Spectrogram {
         let frames = (x.len() - window_len) / hop + 1;
         let bins = fft_len / 2 + 1;
         let win = hann(window_len);
-        let mut planner = RealFftPlanner::<f64>::new();
-        let fft = planner.plan_fft_forward(fft_len);
+        let fft = forward_plan(fft_len);
         let mut input = fft.make_input_vec();
         let mut output = fft.make_output_vec();
         let mut scratch = fft.make_scratch_vec();
@@ -137,7 +151,8 @@ impl Spectrogram {
     }
 }
 
-/// Periodic Hann window of length `n`.
+/// Periodic Hann window of length `n`: the one window of every STFT in the workspace
+/// (analysis, comparison, statistics' transients, grain segmentation).
 pub fn hann(n: usize) -> Vec<f64> {
     (0..n)
         .map(|i| 0.5 - 0.5 * (TAU * i as f64 / n as f64).cos())

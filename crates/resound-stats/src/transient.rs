@@ -95,11 +95,8 @@ pub fn fit_transient(residual: &[f64], sample_rate_hz: f64, bands: usize) -> Tra
         .next_power_of_two()
         .max(64);
     let hop = w / 4;
-    let mut planner = RealFftPlanner::<f64>::new();
-    let fft = planner.plan_fft_forward(w);
-    let window: Vec<f64> = (0..w)
-        .map(|i| 0.5 - 0.5 * (std::f64::consts::TAU * i as f64 / w as f64).cos())
-        .collect();
+    let fft = resound_signal::stft::forward_plan(w);
+    let window = resound_signal::stft::hann(w);
     let w2: f64 = window.iter().map(|v| v * v).sum();
     let frames = if residual.len() >= w {
         (residual.len() - w) / hop + 1

@@ -127,8 +127,8 @@ mod tests {
         Arc::new(AcousticTransfer {
             centre_m: [0.0, 0.1, 0.0],
             radius_m: 0.05,
-            sound_speed_m_s: 343.0,
-            air_density_kg_m3: 1.204,
+            sound_speed_m_s: resound_core::limits::SPEED_OF_SOUND_M_S,
+            air_density_kg_m3: resound_core::limits::AIR_DENSITY_KG_M3,
             grid_start_hz: 1000.0,
             per_octave: 3,
             modes: vec![mode(0), mode(2)],

@@ -61,9 +61,9 @@ pub struct LevelReport {
     pub gain_db: f32,
 }
 
-/// Renders whose peak lies below this (dBFS) are reported as inaudible: 16-bit PCM holds
-/// zeros there, and at any sane monitoring gain nobody hears them.
-pub const QUIET_DBFS: f32 = -90.0;
+/// Renders whose peak lies below this (dBFS) are reported as inaudible
+/// ([`resound_core::limits::INAUDIBLE_DBFS`]).
+pub const QUIET_DBFS: f32 = resound_core::limits::INAUDIBLE_DBFS as f32;
 
 impl LevelReport {
     /// Peak before any gain, dBFS (−∞ for silence).

@@ -11,7 +11,7 @@
 use crate::SynthError;
 
 /// Speed of sound, m/s.
-pub const SPEED_OF_SOUND_M_S: f64 = 343.0;
+pub use resound_core::limits::SPEED_OF_SOUND_M_S;
 
 /// A listener with one or two output channels and a delay ring per channel.
 #[derive(Debug)]

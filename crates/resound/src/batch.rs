@@ -33,8 +33,7 @@ use std::sync::Arc;
 
 /// Bumped when the same job would render differently; part of every output's hash.
 pub const OUTPUT_FORMAT: u32 = 1;
-/// Speed of sound for the listener's delay, m/s.
-pub const SPEED_OF_SOUND_M_S: f64 = 343.0;
+pub use resound_core::limits::SPEED_OF_SOUND_M_S;
 
 fn default_scale() -> f64 {
     1.0
@@ -608,12 +607,12 @@ fn run_job(
                 }
                 strike.samples = moved;
             }
-            let peak = strike.samples.iter().fold(0.0f32, |a, v| a.max(v.abs()));
-            if peak < 1e-6 {
-                warnings.push(format!(
-                    "peak {peak:.1e} of full scale: below audibility (−120 dBFS)"
-                ));
+            // The strike's report measures its level (and warns below audibility); at a
+            // listener, again as heard there.
+            if job.listener.is_some() {
+                crate::strike::measure_level(&mut strike);
             }
+            warnings.extend(strike.info.warnings.iter().cloned());
             for (kind, file) in job.outputs.iter().zip(&files) {
                 let path = out.join(file);
                 if let Some(d) = path.parent() {
@@ -633,18 +632,16 @@ fn run_job(
                     )?,
                     OutputKind::Json => {
                         #[derive(Serialize)]
-                        struct Labels<'a> {
+                        struct Labels {
                             #[serde(flatten)]
-                            info: &'a crate::strike::StrikeInfo,
+                            info: crate::strike::StrikeInfo,
                             speed_m_s: f64,
-                            peak: f32,
                             /// (frequency Hz, damping 1/s, gain per N·s at the hit).
                             bank_modes: Vec<[f64; 3]>,
                         }
                         let labels = Labels {
-                            info: &strike.info,
+                            info: strike.info.without_timings(),
                             speed_m_s: speed,
-                            peak,
                             bank_modes: strike
                                 .modes
                                 .iter()
@@ -668,7 +665,7 @@ fn run_job(
                 surface_point: at.at.point,
                 speed_m_s: speed,
                 files,
-                peak,
+                peak: strike.info.peak,
                 modes: strike.info.modes,
                 warnings,
             };

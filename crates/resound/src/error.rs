@@ -45,6 +45,10 @@ pub enum Error {
     /// A value the pipeline refuses, with the reason.
     #[error("{0}")]
     Invalid(String),
+    /// The material library already has an entry of this name (and replacing it was not
+    /// asked for). Front ends add how to ask (`--force`, `replace=True`).
+    #[error("the library already has a material named {0:?}")]
+    Exists(String),
     /// `cause` happened while working on `what` (a file, a body, a step). The message holds
     /// the cause's; it is not also reported as [`std::error::Error::source`], so a chain
     /// printer (anyhow's `{:#}`) says it once.

@@ -67,9 +67,9 @@ pub fn load_recordings(
 ) -> Result<(Vec<Recording>, f64, usize)> {
     if let Some(r) = rate {
         // Checked before any resampling: a rate of gigahertz would ask for unbounded memory.
-        if !(8000..=384_000).contains(&r) {
-            return Err(invalid(format!(
-                "sample rate must be within 8–384 kHz, got {r} Hz"
+        if !resound_core::limits::sample_rate_ok(f64::from(r)) {
+            return Err(invalid(resound_core::limits::sample_rate_message(
+                f64::from(r),
             )));
         }
     }
@@ -114,16 +114,16 @@ pub fn load_recordings(
 ///
 /// # Errors
 /// Recordings shorter than [`MIN_RECORDING_S`] or longer than [`MAX_RECORDING_S`], silent or
-/// with non-finite samples; a rate outside 8–384 kHz.
+/// with non-finite samples; a rate outside the supported range (`resound_core::limits`).
 pub fn recording_from_samples(
     name: String,
     samples: Vec<f32>,
     sample_rate_hz: f64,
     rule: KindRule,
 ) -> Result<Recording> {
-    if !(8000.0..=384_000.0).contains(&sample_rate_hz) {
-        return Err(invalid(format!(
-            "sample rate must be within 8–384 kHz, got {sample_rate_hz} Hz"
+    if !resound_core::limits::sample_rate_ok(sample_rate_hz) {
+        return Err(invalid(resound_core::limits::sample_rate_message(
+            sample_rate_hz,
         )));
     }
     if samples.iter().any(|v| !v.is_finite()) {

@@ -7,7 +7,7 @@ use resound_estimate::estimate::{starting_points_within, Objective, MAX_STARTS};
 use resound_estimate::{estimate, EstimateParams, ModalSide, RayleighParams};
 use resound_io::library::{default_library_path, read_material, Library};
 use resound_signal::Analysis;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// The library at `path`, or the default one ($RESOUND_LIBRARY, else
@@ -19,12 +19,40 @@ pub fn open_library(path: Option<&Path>) -> Result<Library> {
     let path: PathBuf = match path {
         Some(p) => p.to_path_buf(),
         None => default_library_path().ok_or_else(|| {
-            invalid("no home directory for the default library; pass --library PATH")
+            invalid("no home directory for the default library; name a library file")
         })?,
     };
     Library::open(&path).map_err(|e| {
         Error::from(e).context(format!("opening the material library {}", path.display()))
     })
+}
+
+/// Refuses a `name` the library at `path` (or the default one) already holds, unless
+/// `replace`: the check before a long estimate whose result will be stored under it.
+///
+/// # Errors
+/// [`Error::Exists`]; an unreadable library.
+pub fn check_name_free(path: Option<&Path>, name: &str, replace: bool) -> Result<()> {
+    if replace {
+        return Ok(());
+    }
+    match read_library(path)? {
+        Some(lib) if lib.get(name)?.is_some() => Err(Error::Exists(name.to_string())),
+        _ => Ok(()),
+    }
+}
+
+/// Stores `material` in the library at `path` (or the default one, created if need be) under
+/// its name; an existing entry of that name is replaced only with `replace` — never silently.
+///
+/// # Errors
+/// [`Error::Exists`]; a library that cannot be opened or written.
+pub fn store_material(path: Option<&Path>, material: &SoundMaterial, replace: bool) -> Result<()> {
+    let mut lib = open_library(path)?;
+    if !replace && lib.get(&material.name)?.is_some() {
+        return Err(Error::Exists(material.name.clone()));
+    }
+    Ok(lib.put(material)?)
 }
 
 /// The library at `path` (or the default one) for reading: `None` when it does not exist yet.
@@ -36,7 +64,7 @@ pub fn read_library(path: Option<&Path>) -> Result<Option<Library>> {
     let path: PathBuf = match path {
         Some(p) => p.to_path_buf(),
         None => default_library_path().ok_or_else(|| {
-            invalid("no home directory for the default library; pass --library PATH")
+            invalid("no home directory for the default library; name a library file")
         })?,
     };
     Ok(Library::open_read_only(&path)?)
@@ -154,7 +182,7 @@ pub fn preset_sound_material(name: &str) -> Option<SoundMaterial> {
         &format!("preset:{name}"),
         alpha,
         beta,
-        m.youngs_modulus / m.density,
+        m.stiffness_density_ratio(),
         resound_core::DEFAULT_SIGMA,
     ))
 }
@@ -248,11 +276,20 @@ impl Default for EstimateMaterialParams {
     }
 }
 
-/// What [`estimate_material`] found besides the material.
-#[derive(Clone, Debug, Serialize)]
+/// What [`estimate_material`] found besides the material: the estimate's report, the one
+/// document every front end shows (`resound estimate --json` prints it, Python receives it as a
+/// dict made from it, the studio serves it).
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct EstimateInfo {
-    /// Best parameters.
+    /// The material's name.
+    pub name: String,
+    /// Best parameters: α 1/s, β s, γ m²/s², σ (at the top level of the document).
+    #[serde(flatten)]
     pub params: RayleighParams,
+    /// The first recording's analysed strike, counting from 1.
+    pub strike: usize,
+    /// Why that strike.
+    pub strike_reason: String,
     /// Hybrid metric there (finite).
     pub metric: f64,
     /// Starting points run.
@@ -270,11 +307,13 @@ pub struct EstimateInfo {
     /// Things the user should know (the object's lowest mode above every recorded one, …).
     pub warnings: Vec<String>,
     /// Each recording's part when several were combined (empty for one).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub takes: Vec<TakeReport>,
     /// How much the recordings' own estimates differ (two or more recordings).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub spread: Option<TakeSpread>,
     /// The microphone the forward model radiated to, m (estimates with `mic_m`).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mic: Option<[f64; 3]>,
     /// Estimates run: with a microphone the radiation factors depend on where γ puts the
     /// modes, so the estimate is rerun at its γ until the modes move by less than
@@ -313,7 +352,7 @@ pub fn heard_side(
 }
 
 /// One recording of a combined estimate ([`estimate_material_from`]).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct TakeReport {
     /// The take's label (file, strike, channel).
     pub label: String,
@@ -330,7 +369,7 @@ pub struct TakeReport {
 /// Relative standard deviations of the takes' own estimates: the measured variation between
 /// strikes, microphones or objects, and the standard error of the combined value (that over
 /// √takes).
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct TakeSpread {
     /// Of α (relative to the mean).
     pub alpha_rel_sd: f64,
@@ -358,7 +397,7 @@ pub fn modal_side(model: &ModalModel, hit: &Hit) -> ModalSide {
     ModalSide {
         eigenvalues0: model.eigenvalues.clone(),
         gains0: hit.gains.clone(),
-        gamma0: model.material.youngs_modulus / model.material.density,
+        gamma0: model.gamma0(),
     }
 }
 
@@ -516,7 +555,7 @@ pub fn estimate_material_from(
     };
     // Without a microphone one run. With one, the factors are taken where the model's own
     // material puts the modes, then where each estimate's γ does, until γ settles.
-    let mut gamma = model.material.youngs_modulus / model.material.density;
+    let mut gamma = model.gamma0();
     let mut passes = 0;
     let mut evaluations = 0;
     let (sides, est, joint) = loop {
@@ -711,7 +750,10 @@ pub fn estimate_material_from(
     };
     material.validate().map_err(invalid)?;
     let info = EstimateInfo {
+        name: params.name.clone(),
         params: p,
+        strike: analysis.strike + 1,
+        strike_reason: analysis.strike_reason.clone(),
         metric: est.metric,
         starts: est.starts,
         evaluations,

@@ -4,7 +4,7 @@ use crate::error::{Error, Result};
 use resound_core::{Hit, Material, ModalModel};
 use resound_io::{load_mesh, model_file, LoadedMesh};
 use resound_modal::{Geometry, ModalBuilder, ModalParams, ModalSolution, ModalSolveInfo, Stage};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// How to turn a mesh file into a modal model.
@@ -184,31 +184,31 @@ pub fn solve_surface(
     Ok(model)
 }
 
-/// One mode in the JSON summary.
 /// One mode of a [`ModalReport`].
-#[derive(Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ModeRow {
     /// Frequency, Hz.
     pub freq_hz: f64,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     /// Gain at the hit, m per N·s.
     pub gain: Option<f64>,
 }
 
 /// The material of a [`ModalReport`].
-#[derive(Serialize)]
-pub struct MaterialRow<'a> {
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct MaterialRow {
     /// Name.
-    pub name: &'a str,
+    pub name: String,
     /// Young's modulus, Pa.
     pub youngs_modulus_pa: f64,
     /// Poisson ratio.
     pub poisson_ratio: f64,
-    density_kg_m3: f64,
+    /// Density, kg/m³.
+    pub density_kg_m3: f64,
 }
 
 /// The hit of a [`ModalReport`].
-#[derive(Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct HitRow {
     /// Surface point, m.
     pub point: [f64; 3],
@@ -219,7 +219,7 @@ pub struct HitRow {
 }
 
 /// The voxel grid of a [`ModalReport`].
-#[derive(Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct VoxelRow {
     /// Voxels along the longest side.
     pub resolution: usize,
@@ -227,17 +227,19 @@ pub struct VoxelRow {
     pub grid: [usize; 3],
     /// Voxel size, m.
     pub voxel_size_m: [f64; 3],
-    fe_volume_m3: f64,
-    surface_volume_m3: f64,
+    /// Volume of the finite elements, m³.
+    pub fe_volume_m3: f64,
+    /// Volume the surface encloses, m³.
+    pub surface_volume_m3: f64,
     /// What repair did.
     pub repairs: Vec<String>,
 }
 
 /// The solve's figures in a [`ModalReport`].
-#[derive(Serialize)]
-pub struct SolveRow<'a> {
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SolveRow {
     /// Element type.
-    pub element: &'a str,
+    pub element: String,
     /// Nonzeros of K.
     pub nnz: usize,
     /// Nonzeros of the Cholesky factor.
@@ -265,7 +267,7 @@ pub struct SolveRow<'a> {
 }
 
 /// The acoustic transfer's fit, as `resound modal --transfer --json` prints it.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct TransferRow {
     /// What the fit did.
     #[serde(flatten)]
@@ -275,31 +277,31 @@ pub struct TransferRow {
 }
 
 /// A modal model and its solve, as `resound modal --json` prints it.
-#[derive(Serialize)]
-pub struct ModalReport<'a> {
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ModalReport {
     /// Degrees of freedom.
     pub dofs: usize,
     /// Finite elements.
     pub elements: usize,
     /// What the solve did (absent for a loaded model: it was not solved here).
-    #[serde(flatten, skip_serializing_if = "Option::is_none")]
-    pub solve: Option<SolveRow<'a>>,
+    #[serde(flatten, default, skip_serializing_if = "Option::is_none")]
+    pub solve: Option<SolveRow>,
     /// The reference material.
-    pub material: MaterialRow<'a>,
+    pub material: MaterialRow,
     /// Surface vertices.
     pub surface_vertices: usize,
     /// Things the user should know.
-    pub warnings: &'a [String],
-    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warnings: Vec<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     /// The voxel grid (surface meshes).
     pub voxel: Option<VoxelRow>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     /// The hit point (with `--hit`).
     pub hit: Option<HitRow>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     /// Load time of a saved model, ms.
     pub load_ms: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     /// The acoustic transfer fitted here (`resound modal --transfer`).
     pub transfer: Option<TransferRow>,
     /// Whether the model holds an acoustic transfer.
@@ -308,17 +310,17 @@ pub struct ModalReport<'a> {
     pub modes: Vec<ModeRow>,
 }
 
-impl<'a> ModalReport<'a> {
+impl ModalReport {
     /// The report of `model` (solved as `info` says, or loaded: `None`), with the gains at
     /// `hit`.
-    pub fn new(model: &'a ModalModel, info: Option<&'a ModalSolveInfo>, hit: Option<&Hit>) -> Self {
+    pub fn new(model: &ModalModel, info: Option<&ModalSolveInfo>, hit: Option<&Hit>) -> Self {
         ModalReport {
             dofs: info.map_or(model.fem_dofs as usize, |i| i.dofs),
             elements: info.map_or(model.fem_elements as usize, |i| i.elements),
             solve: info.map(|info| {
                 let e = &info.eigen;
                 SolveRow {
-                    element: info.element,
+                    element: info.element.to_string(),
                     nnz: e.nnz_k,
                     nnz_factor: e.nnz_l,
                     assemble_s: info.assemble_s,
@@ -334,7 +336,7 @@ impl<'a> ModalReport<'a> {
                 }
             }),
             material: MaterialRow {
-                name: &model.material.name,
+                name: model.material.name.clone(),
                 youngs_modulus_pa: model.material.youngs_modulus,
                 poisson_ratio: model.material.poisson_ratio,
                 density_kg_m3: model.material.density,
@@ -342,7 +344,7 @@ impl<'a> ModalReport<'a> {
             surface_vertices: model.n_vertices(),
             transfer: None,
             has_transfer: model.transfer.is_some(),
-            warnings: info.map_or(&[][..], |i| &i.warnings[..]),
+            warnings: info.map_or_else(Vec::new, |i| i.warnings.clone()),
             voxel: info.and_then(|i| i.discretize.as_ref()).map(|r| VoxelRow {
                 resolution: r.resolution,
                 grid: r.grid_dims,

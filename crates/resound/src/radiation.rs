@@ -90,7 +90,10 @@ pub fn mic_factors(
                     out_of_range += 1;
                 }
             }
-            if transfer.misfit_at(j, f).is_some_and(|r| r > 0.9) {
+            if transfer
+                .misfit_at(j, f)
+                .is_some_and(|r| f64::from(r) > resound_core::limits::POOR_TRANSFER_MISFIT)
+            {
                 poor += 1;
             }
             if transfer.modes[j].orders.is_empty() {
@@ -126,7 +129,7 @@ pub fn mic_factors(
 
 /// The frequencies (Hz) of `model`'s modes in a material of stiffness-to-density ratio `gamma`.
 pub fn freqs_in(model: &ModalModel, gamma: f64) -> Vec<f64> {
-    let gamma0 = model.material.youngs_modulus / model.material.density;
+    let gamma0 = model.gamma0();
     model
         .eigenvalues
         .iter()

@@ -98,9 +98,9 @@ pub fn analyze_samples(
     sample_rate_hz: f64,
     params: &AnalyzeParams,
 ) -> Result<Analysis> {
-    if !(1000.0..=1e6).contains(&sample_rate_hz) {
-        return Err(invalid(format!(
-            "sample rate {sample_rate_hz} Hz is outside 1 kHz–1 MHz"
+    if !resound_core::limits::sample_rate_ok(sample_rate_hz) {
+        return Err(invalid(resound_core::limits::sample_rate_message(
+            sample_rate_hz,
         )));
     }
     if samples.is_empty() {

@@ -201,7 +201,7 @@ pub fn body_sound(
     let m = model.n_modes();
     let vertex_gains = model.vertex_gains();
     // The forward model at unit gain: frequencies and decays, and which modes are kept.
-    let gamma0 = model.material.youngs_modulus / model.material.density;
+    let gamma0 = model.gamma0();
     let kept = material.modes_indexed(
         &model.eigenvalues,
         &vec![1.0; m],
@@ -326,11 +326,15 @@ pub fn build_scene(
         std::path::PathBuf,
         std::sync::Arc<resound_grains::Dictionary>,
     > = std::collections::HashMap::new();
-    for (i, spanned) in scene.body.iter().enumerate() {
-        let b = spanned.get_ref();
+    for (i, b) in scene.body.iter().enumerate() {
         let fail = |e: Error| e.context(format!("body {:?}", b.name));
         (opts.progress)(&format!("body {}/{}: {}", i + 1, scene.body.len(), b.name));
-        let material = resolve_material(&b.material, opts.base_dir, opts.library).map_err(fail)?;
+        let material = match &b.material {
+            resound_io::scene::MaterialSpec::Name(spec) => {
+                resolve_material(spec, opts.base_dir, opts.library).map_err(fail)?
+            }
+            resound_io::scene::MaterialSpec::Inline(m) => (**m).clone(),
+        };
         let (mesh, shape) = geometry(b, opts.base_dir).map_err(fail)?;
         let grains = match b.grains_file() {
             Some((file, gain)) => {
@@ -395,7 +399,11 @@ pub fn build_scene(
                     .modes
                     .iter()
                     .zip(&s.modes)
-                    .filter(|&(&j, &(f, _))| r.transfer.misfit_at(j, f).is_some_and(|m| m > 0.9))
+                    .filter(|&(&j, &(f, _))| {
+                        r.transfer.misfit_at(j, f).is_some_and(|m| {
+                            f64::from(m) > resound_core::limits::POOR_TRANSFER_MISFIT
+                        })
+                    })
                     .count();
                 if poor > 0 {
                     (opts.progress)(&format!(
@@ -644,9 +652,40 @@ pub fn render_scene_text(
 ) -> Result<SceneRender> {
     let t0 = std::time::Instant::now();
     let scene = resound_io::scene::parse_scene(text, label)?;
+    render_parsed(&scene, t0, label, base_dir, params, stage, simulated)
+}
+
+/// [`render_scene`] of a scene deserialized into the scene file's types from any format (a
+/// Python dict, JSON, an HTTP body), checked with the scene file's rules and messages (which
+/// name fields; there are no lines). `label` and `base_dir` as in [`render_scene_text`].
+///
+/// # Errors
+/// As [`render_scene`].
+pub fn render_scene_value(
+    scene: resound_io::scene::SceneFile,
+    label: &str,
+    base_dir: &Path,
+    params: &SceneRenderParams,
+    stage: &dyn Fn(&str),
+    simulated: &dyn Fn(f64),
+) -> Result<SceneRender> {
+    let t0 = std::time::Instant::now();
+    let scene = resound_io::scene::validate_scene(scene, label, None)?;
+    render_parsed(&scene, t0, label, base_dir, params, stage, simulated)
+}
+
+fn render_parsed(
+    scene: &resound_io::scene::SceneFile,
+    t0: std::time::Instant,
+    label: &str,
+    base_dir: &Path,
+    params: &SceneRenderParams,
+    stage: &dyn Fn(&str),
+    simulated: &dyn Fn(f64),
+) -> Result<SceneRender> {
     let warnings = std::cell::RefCell::new(Vec::new());
     let (bodies, sp) = build_parsed(
-        &scene,
+        scene,
         base_dir,
         label,
         params,

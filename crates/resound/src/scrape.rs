@@ -114,10 +114,14 @@ pub const MAX_IRS: usize = 256;
 pub fn render_scrape(job: &ScrapeJob) -> Result<(Vec<f32>, f64)> {
     let fs = f64::from(job.sample_rate_hz);
     let p = &job.params;
-    if !((8000.0..=192_000.0).contains(&fs) && job.duration_s > 0.0 && job.duration_s <= 600.0) {
-        return Err(invalid(
-            "sample rate must be within 8000–192000 Hz and duration in (0, 600] s",
-        ));
+    if !resound_core::limits::sample_rate_ok(fs) {
+        return Err(invalid(resound_core::limits::sample_rate_message(fs)));
+    }
+    if !(job.duration_s > 0.0 && job.duration_s <= 600.0) {
+        return Err(invalid(format!(
+            "duration must be in (0, 600] s, got {}",
+            job.duration_s
+        )));
     }
     if !(p.tip_width_m.is_finite() && p.tip_width_m >= 0.0 && p.tip_width_m < 0.05) {
         return Err(invalid("tip width must be in [0, 0.05) m"));

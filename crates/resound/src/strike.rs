@@ -10,7 +10,7 @@ use resound_synth::excitation::{ContactModel, Elastic, Impact};
 use resound_synth::render::{bank_modes, render_strike as render_bank, REFERENCE_IMPULSE_N_S};
 use resound_synth::residual::{GriffinLim, Pairing, ResidualSource};
 use resound_synth::BankMode;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 
 /// What is struck.
@@ -81,9 +81,13 @@ impl Default for StrikeParams {
     }
 }
 
-/// Figures of a rendered strike.
-#[derive(Clone, Debug, Default, Serialize)]
+/// Figures of a rendered strike: the strike's report, the one document every front end shows
+/// (`resound synth --json` prints it beside the file it wrote, Python's `render_strike` returns
+/// it as a dict).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct StrikeInfo {
+    /// The material's name (objects and statistics; `None` for analysed modes).
+    pub material: Option<String>,
     /// Modes rendered.
     pub modes: usize,
     /// The impact's impulse, N·s.
@@ -91,7 +95,7 @@ pub struct StrikeInfo {
     /// Contact duration, s (0 for analysed modes).
     pub contact_s: f64,
     /// Residual pairing used: "natural", "dominant", "transient" or "none".
-    pub residual: &'static str,
+    pub residual: String,
     /// Time spent transferring the residual, s.
     pub residual_transfer_s: f64,
     /// The hit point on the surface (objects only), m.
@@ -100,9 +104,62 @@ pub struct StrikeInfo {
     pub mic: Option<[f64; 3]>,
     /// Time spent fitting the acoustic transfer (a model file without one), s.
     pub transfer_fit_s: f64,
-    /// What is not credible about this strike (front ends print them with their own).
-    #[serde(skip)]
+    /// Peak of the render at its physical level (1 m away), full scale = 1.
+    pub peak: f32,
+    /// Level change applied by [`level_for_file`], dB (0: the physical level).
+    pub gain_db: f32,
+    /// Wall time of the render, s.
+    pub elapsed_s: f64,
+    /// What is not credible about this strike (below audibility, a microphone inside the
+    /// object's enclosing sphere, …).
     pub warnings: Vec<String>,
+}
+
+impl StrikeInfo {
+    /// The report without its wall-clock figures (zeroed): what content-addressed files hold,
+    /// so the same strike writes the same bytes in any run.
+    pub fn without_timings(&self) -> Self {
+        Self {
+            residual_transfer_s: 0.0,
+            transfer_fit_s: 0.0,
+            elapsed_s: 0.0,
+            ..self.clone()
+        }
+    }
+}
+
+/// Turns a strike down to the file ceiling (−1 dBFS) when it would clip, as `resound synth`
+/// writes it; the gain goes into its report.
+///
+/// # Errors
+/// Non-finite samples.
+pub fn level_for_file(strike: &mut Strike) -> Result<()> {
+    let level =
+        resound_synth::render::normalize(&mut strike.samples, resound_synth::render::CEILING)?;
+    strike.info.gain_db = level.gain_db;
+    Ok(())
+}
+
+/// Measures the strike's peak into its report, with the inaudibility warning (replacing an
+/// earlier one): after anything that changes the level physically (a listener's distance).
+pub fn measure_level(s: &mut Strike) {
+    let level = resound_synth::render::LevelReport {
+        peak_before: s.samples.iter().fold(0.0f32, |a, v| a.max(v.abs())),
+        gain_db: 0.0,
+    };
+    s.info.peak = level.peak_before;
+    s.info.warnings.retain(|w| !w.starts_with(QUIET_PREFIX));
+    s.info.warnings.extend(level.quiet_warning());
+}
+
+/// How [`LevelReport::quiet_warning`](resound_synth::render::LevelReport::quiet_warning)'s
+/// warnings begin.
+const QUIET_PREFIX: &str = "the render ";
+
+fn finish(mut s: Strike, t0: std::time::Instant) -> Strike {
+    measure_level(&mut s);
+    s.info.elapsed_s = t0.elapsed().as_secs_f64();
+    s
 }
 
 /// A rendered strike and its parts (the live engine replays the parts: modes struck by the
@@ -123,11 +180,8 @@ pub struct Strike {
 
 fn check(p: &StrikeParams) -> Result<()> {
     let fs = f64::from(p.sample_rate_hz);
-    if !(8000.0..=192_000.0).contains(&fs) {
-        return Err(invalid(format!(
-            "sample rate must be within 8000–192000 Hz, got {}",
-            p.sample_rate_hz
-        )));
+    if !resound_core::limits::sample_rate_ok(fs) {
+        return Err(invalid(resound_core::limits::sample_rate_message(fs)));
     }
     if !(p.duration_s > 0.0 && p.duration_s <= 600.0) || (p.duration_s * fs).round() < 1.0 {
         return Err(invalid(format!(
@@ -169,6 +223,7 @@ fn elastic(m: &Material) -> Elastic {
 /// resampling; a non-finite result.
 pub fn render_strike(struck: Struck<'_>, p: &StrikeParams) -> Result<Strike> {
     check(p)?;
+    let t0 = std::time::Instant::now();
     let fs = f64::from(p.sample_rate_hz);
     let samples = (p.duration_s * fs).round() as usize;
     let mass = p.impactor_mass_kg.unwrap_or_else(|| {
@@ -185,7 +240,7 @@ pub fn render_strike(struck: Struck<'_>, p: &StrikeParams) -> Result<Strike> {
     let scale = impact.impulse_n_s() / REFERENCE_IMPULSE_N_S;
     let mut info = StrikeInfo {
         impulse_n_s: impact.impulse_n_s(),
-        residual: "none",
+        residual: "none".into(),
         ..Default::default()
     };
     let (modes, extra): (Vec<DampedMode>, Vec<f32>) = match struck {
@@ -212,15 +267,19 @@ pub fn render_strike(struck: Struck<'_>, p: &StrikeParams) -> Result<Strike> {
                 .iter()
                 .map(|&v| (v * scale) as f32)
                 .collect();
-            return Ok(Strike {
-                samples: x.clone(),
-                modes: Vec::new(),
-                force: Vec::new(),
-                extra: x,
-                info,
-            });
+            return Ok(finish(
+                Strike {
+                    samples: x.clone(),
+                    modes: Vec::new(),
+                    force: Vec::new(),
+                    extra: x,
+                    info,
+                },
+                t0,
+            ));
         }
         Struck::Stats { stats, seed } => {
+            info.material = Some(stats.material.clone());
             let ir = resound_stats::perturb(&stats.sample(seed)?, seed.wrapping_add(1));
             let modes: Vec<DampedMode> = ir.into_iter().filter(|m| m.freq_hz < 0.5 * fs).collect();
             let mut extra = Vec::new();
@@ -230,7 +289,7 @@ pub fn render_strike(struck: Struck<'_>, p: &StrikeParams) -> Result<Strike> {
                     .iter()
                     .map(|v| (v * scale) as f32)
                     .collect();
-                info.residual = "transient";
+                info.residual = "transient".into();
             }
             (modes, extra)
         }
@@ -241,7 +300,8 @@ pub fn render_strike(struck: Struck<'_>, p: &StrikeParams) -> Result<Strike> {
             same_object,
         } => {
             material.validate().map_err(invalid)?;
-            let gamma0 = model.material.youngs_modulus / model.material.density;
+            info.material = Some(material.name.clone());
+            let gamma0 = model.gamma0();
             let gains: Cow<'_, [f64]> = match p.mic_m {
                 None => Cow::Borrowed(&hit.gains),
                 Some(mic) => {
@@ -270,7 +330,7 @@ pub fn render_strike(struck: Struck<'_>, p: &StrikeParams) -> Result<Strike> {
                 } else {
                     Pairing::Dominant(8)
                 };
-                info.residual = if same_object { "natural" } else { "dominant" };
+                info.residual = if same_object { "natural" } else { "dominant" }.into();
                 let t1 = std::time::Instant::now();
                 let res = ResidualSource::new(r).transfer(&modes, pairing, &GriffinLim::default());
                 info.residual_transfer_s = t1.elapsed().as_secs_f64();
@@ -307,11 +367,14 @@ pub fn render_strike(struck: Struck<'_>, p: &StrikeParams) -> Result<Strike> {
     for (o, v) in out.iter_mut().zip(&extra) {
         *o += v;
     }
-    Ok(Strike {
-        samples: out,
-        modes: bm,
-        force,
-        extra,
-        info,
-    })
+    Ok(finish(
+        Strike {
+            samples: out,
+            modes: bm,
+            force,
+            extra,
+            info,
+        },
+        t0,
+    ))
 }

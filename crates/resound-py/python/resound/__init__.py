@@ -7,20 +7,20 @@ kg) and named in each keyword (``speed_m_s``, ``duration_s``). Heavy work releas
 threads run in parallel. There is no global state: every function takes what it needs.
 
 Errors raise :class:`ResoundError` with the message the ``resound`` command line prints.
+Reports are the documents the command line's ``--json`` prints, as dicts: both come from the
+same typed reports of the Rust library.
 """
 
 from __future__ import annotations
 
-import json
 import os
-import tempfile
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _native
-from ._native import GrainDictionary, ModalModel, ModeStatistics, ResoundError
+from ._native import GrainDictionary, Material, ModalModel, ModeStatistics, ResoundError
 
 __all__ = [
     "Body",
@@ -87,38 +87,12 @@ class Modes:
         return len(self.freq_hz)
 
 
-@dataclass(frozen=True)
-class Material:
-    """A sounding material: Rayleigh damping α (1/s) and β (s), γ = E/ρ (m²/s²) and the
-    amplitude scale σ (Ren 2013 §5), plus what the document carries (residual, provenance).
-
-    ``document`` is the full JSON document; pass a Material anywhere a material is taken.
-    """
-
-    name: str
-    alpha: float
-    beta: float
-    gamma: float
-    sigma: float
-    origin: str = "document"
-    document: Dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
-
-    @classmethod
-    def from_document(cls, doc: Dict[str, Any], origin: str = "document") -> "Material":
-        return cls(doc["name"], float(doc["alpha"]), float(doc["beta"]), float(doc["gamma"]),
-                   float(doc["sigma"]), origin, doc)
-
-    def to_json(self) -> str:
-        """The material's JSON document (what ``resound materials export`` writes)."""
-        return json.dumps(self.document)
+MaterialLike = Union[Material, str, "os.PathLike[str]"]
 
 
-MaterialLike = Union[Material, str]
-
-
-def _material_spec(m: MaterialLike) -> str:
+def _material_arg(m: MaterialLike) -> Union[Material, str]:
     if isinstance(m, Material):
-        return m.to_json()
+        return m
     if isinstance(m, (str, os.PathLike)):
         return os.fspath(m)
     raise TypeError(f"a material is a Material, a library name, a file or 'preset:NAME', not {type(m).__name__}")
@@ -185,27 +159,26 @@ def analyze(audio: Union[PathLike, np.ndarray], sample_rate: Optional[float] = N
             raise TypeError("resample_hz is for files")
         rows, rep = _native.analyze_array(_mono(audio, channel), float(sample_rate), strike,
                                           max_modes, min_db)
-    report = json.loads(rep)
-    report.pop("modes", None)
-    return Modes.from_array(rows, report)
+    rep.pop("modes", None)
+    return Modes.from_array(rows, rep)
 
 
-def material(spec: str, *, library: Optional[PathLike] = None) -> Material:
+def material(spec: PathLike, *, library: Optional[PathLike] = None) -> Material:
     """A material by library name, file, built-in name or ``preset:NAME``."""
-    return Material.from_document(json.loads(_native.get_material(os.fspath(spec),
-                                                                  _opt_path(library))))
+    return _native.get_material(os.fspath(spec), _opt_path(library))
 
 
 def materials(*, library: Optional[PathLike] = None) -> List[Material]:
     """Every material: the library's, then the built-ins it does not replace."""
-    rows = json.loads(_native.list_materials(_opt_path(library)))
-    return [Material.from_document(doc, origin) for doc, origin in rows]
+    return _native.list_materials(_opt_path(library))
 
 
 def save_material(m: Material, *, library: Optional[PathLike] = None,
                   replace: bool = False) -> None:
     """Stores ``m`` in the library under its name (an existing entry only with ``replace``)."""
-    _native.save_material(m.to_json(), _opt_path(library), replace)
+    if not isinstance(m, Material):
+        raise TypeError(f"save_material takes a Material, not {type(m).__name__}")
+    _native.save_material(m, _opt_path(library), replace)
 
 
 def estimate_material(audio: Union[PathLike, np.ndarray], model: ModalModel,
@@ -232,7 +205,7 @@ def estimate_material(audio: Union[PathLike, np.ndarray], model: ModalModel,
         m, rep = _native.estimate_material(model, h, None, _mono(audio, channel),
                                            float(sample_rate), None, strike, name, residual,
                                            allow_implausible, m3)
-    return Material.from_document(json.loads(m), "estimated"), json.loads(rep)
+    return m, rep
 
 
 def render_strike(material: MaterialLike, model: ModalModel, hit: Sequence[float], *,
@@ -240,17 +213,21 @@ def render_strike(material: MaterialLike, model: ModalModel, hit: Sequence[float
                   residual: bool = True, impactor_mass_kg: Optional[float] = None,
                   impactor_radius_m: float = 0.005,
                   library: Optional[PathLike] = None,
-                  mic: Optional[Sequence[float]] = None) -> np.ndarray:
+                  mic: Optional[Sequence[float]] = None,
+                  return_info: bool = False
+                  ) -> Union[np.ndarray, Tuple[np.ndarray, Dict[str, Any]]]:
     """One strike of an object (``model``) of ``material`` at ``hit`` (m) by a steel sphere at
     ``speed_m_s``: float32 samples at physical scale (1 m away; not normalized). ``mic``:
     a microphone (model coordinates, m) that hears each mode as it radiates there (the model's
-    acoustic transfer, fitted on the spot when it holds none)."""
-    x, _info = _native.render_strike(_material_spec(material), model,
-                                     [float(c) for c in hit], speed_m_s, duration_s,
-                                     sample_rate, residual, impactor_mass_kg,
-                                     impactor_radius_m, _opt_path(library),
-                                     None if mic is None else [float(c) for c in mic])
-    return x
+    acoustic transfer, fitted on the spot when it holds none). With ``return_info``, also the
+    strike's report (contact time, force, modes kept, peak, warnings: what ``resound synth
+    --json`` prints, less the output file)."""
+    x, info = _native.render_strike(_material_arg(material), model,
+                                    [float(c) for c in hit], speed_m_s, duration_s,
+                                    sample_rate, residual, impactor_mass_kg,
+                                    impactor_radius_m, _opt_path(library),
+                                    None if mic is None else [float(c) for c in mic])
+    return (x, info) if return_info else x
 
 
 def render_modes(modes: Union[Modes, np.ndarray], *, duration_s: float = 1.0,
@@ -270,17 +247,6 @@ def render_impact(stats: ModeStatistics, *, seed: int = 0, speed_m_s: float = 1.
     with ``seed + 1``. Float32 samples."""
     return _native.render_impact(stats, seed, speed_m_s, duration_s, sample_rate, residual,
                                  impactor_mass_kg, impactor_radius_m)
-
-
-@dataclass(frozen=True)
-class SceneRender:
-    """A rendered scene: ``audio`` float32 (channels, samples) at ``sample_rate`` Hz, the
-    contact ``events`` (time, bodies, kind, force, …) and the ``summary`` figures."""
-
-    audio: np.ndarray
-    sample_rate: int
-    events: List[Dict[str, Any]]
-    summary: Dict[str, Any]
 
 
 def _vec3(v: Optional[Sequence[float]]) -> Optional[List[float]]:
@@ -331,13 +297,13 @@ class Body:
     sound: Optional[Union[bool, Dict[str, Any]]] = None
     extra: Dict[str, Any] = field(default_factory=dict)
 
-    def to_dict(self, material_file: Optional[str] = None) -> Dict[str, Any]:
-        """The body as a scene file's table (``material_file`` stands in for a Material)."""
+    def to_dict(self) -> Dict[str, Any]:
+        """The body as a scene file's table (a :class:`Material` inline, as its document)."""
+        m = _material_arg(self.material)
         d: Dict[str, Any] = {
             "name": self.name,
             "shape": dict(self.shape),
-            "material": material_file if material_file is not None
-            else _material_spec(self.material),
+            "material": m.to_dict() if isinstance(m, Material) else m,
             "density": float(self.density_kg_m3),
         }
         opt = {
@@ -378,8 +344,8 @@ class Scene:
         self.bodies.append(body)
         return self
 
-    def to_dict(self, material_files: Optional[Dict[str, str]] = None) -> Dict[str, Any]:
-        files = material_files or {}
+    def to_dict(self) -> Dict[str, Any]:
+        """The scene file's fields (materials given as :class:`Material` inline)."""
         d: Dict[str, Any] = {}
         opt = {
             "duration": self.duration_s,
@@ -392,7 +358,7 @@ class Scene:
         d.update({k: v for k, v in opt.items() if v is not None})
         if self.listener_m is not None:
             d["listener"] = {"position": _vec3(self.listener_m)}
-        d["body"] = [b.to_dict(files.get(b.name)) for b in self.bodies]
+        d["body"] = [b.to_dict() for b in self.bodies]
         return d
 
 
@@ -420,25 +386,17 @@ def render_scene(scene: Union[PathLike, Scene, Dict[str, Any]], *,
             raise TypeError("base_dir is for scenes built in code; a file's paths are its own")
         audio, fs, events, summary = _native.render_scene(os.fspath(scene), _opt_path(library),
                                                           keep_level)
-        return SceneRender(audio, fs, json.loads(events), json.loads(summary))
+        return SceneRender(audio, fs, events, summary)
     base = os.fspath(base_dir) if base_dir is not None else os.getcwd()
-    with tempfile.TemporaryDirectory(prefix="resound-scene-") as tmp:
-        if isinstance(scene, Scene):
-            files: Dict[str, str] = {}
-            for b in scene.bodies:
-                if isinstance(b.material, Material):
-                    f = os.path.join(tmp, f"material-{len(files)}.json")
-                    with open(f, "w", encoding="utf-8") as out:
-                        out.write(b.material.to_json())
-                    files[b.name] = f
-            doc = scene.to_dict(files)
-        elif isinstance(scene, dict):
-            doc = scene
-        else:
-            raise TypeError(f"a scene is a file, a Scene or a dict, not {type(scene).__name__}")
-        audio, fs, events, summary = _native.render_scene_json(json.dumps(doc), base,
-                                                               _opt_path(library), keep_level)
-    return SceneRender(audio, fs, json.loads(events), json.loads(summary))
+    if isinstance(scene, Scene):
+        doc = scene.to_dict()
+    elif isinstance(scene, dict):
+        doc = scene
+    else:
+        raise TypeError(f"a scene is a file, a Scene or a dict, not {type(scene).__name__}")
+    audio, fs, events, summary = _native.render_scene_dict(doc, base, _opt_path(library),
+                                                           keep_level)
+    return SceneRender(audio, fs, events, summary)
 
 
 def render_scrape(modes: Union[Modes, np.ndarray], *, speed_m_s: Optional[float] = None,
@@ -506,7 +464,7 @@ def analyze_grains(recordings: Sequence[Union[PathLike, Tuple[str, np.ndarray]]]
         rep = _native.grains_analyze([os.fspath(r) for r in recordings], os.fspath(output),
                                      None, sample_rate, kind, None, min_db, peaks, min_corr,
                                      prune)
-    return GrainDictionary.load(os.fspath(output)), json.loads(rep)
+    return GrainDictionary.load(os.fspath(output)), rep
 
 
 def fit_stats(recordings: Sequence[PathLike], material: str, *, modes: int = 15,
@@ -528,5 +486,5 @@ def batch(jobs: PathLike, out: PathLike, *, shard: Tuple[int, int] = (0, 1),
     outputs, a per-shard manifest, resumable). Returns the run's figures; failed job lines are
     listed in ``failures`` rather than raised."""
     i, n = shard
-    return json.loads(_native.batch(os.fspath(jobs), os.fspath(out), int(i), int(n),
-                                    _opt_path(library), _opt_path(cache)))
+    return _native.batch(os.fspath(jobs), os.fspath(out), int(i), int(n),
+                         _opt_path(library), _opt_path(cache))

@@ -1,22 +1,62 @@
 """Type stubs of the native module (Rust, pyo3). Use the functions of :mod:`resound`; the
-two classes are public there."""
+classes are public there. Reports are dicts: the documents the CLI's ``--json`` prints."""
 
 from os import PathLike
-from typing import List, Optional, Sequence, Tuple, Union, final
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["ResoundError", "ModalModel", "ModeStatistics", "GrainDictionary", "analyze_file",
+__all__ = ["ResoundError", "Material", "ModalModel", "ModeStatistics", "GrainDictionary", "analyze_file",
            "analyze_array", "get_material", "list_materials", "save_material",
            "estimate_material", "render_strike", "render_modes", "render_impact",
-           "render_scene", "batch", "render_scrape", "grains_analyze", "render_scene_json",
+           "render_scene", "batch", "render_scrape", "grains_analyze", "render_scene_dict",
            "version"]
 
 _Path = Union[str, PathLike[str]]
+_Report = Dict[str, Any]
 
 class ResoundError(Exception):
     """A Resound operation failed; the message is the CLI's."""
+
+@final
+class Material:
+    """A sounding material (Ren 2013 §5): Rayleigh α (1/s), β (s), γ = E/ρ (m²/s²), σ, and
+    what its document carries (damping model, residual, provenance). Equal when the documents
+    are."""
+
+    def __new__(cls, name: str, alpha: float, beta: float, gamma: float,
+                sigma: float) -> "Material": ...
+    @staticmethod
+    def load(spec: _Path, library: Optional[_Path] = None) -> "Material":
+        """A material by library name, file, built-in name or ``preset:NAME``."""
+    @staticmethod
+    def from_dict(doc: Dict[str, Any]) -> "Material":
+        """A material from its document (checked)."""
+    @staticmethod
+    def from_json(text: str) -> "Material":
+        """A material from its JSON document (checked)."""
+    def to_dict(self) -> Dict[str, Any]:
+        """The material's document."""
+    def to_json(self) -> str:
+        """The material's JSON document (what ``resound materials export`` writes)."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def alpha(self) -> float: ...
+    @property
+    def beta(self) -> float: ...
+    @property
+    def gamma(self) -> float: ...
+    @property
+    def sigma(self) -> float: ...
+    @property
+    def origin(self) -> str:
+        """``builtin``, ``library``, ``estimated``, … as listed; ``document`` otherwise."""
+    @property
+    def provenance(self) -> Optional[Dict[str, Any]]: ...
+
+_MaterialArg = Union[Material, str]
 
 @final
 class ModalModel:
@@ -34,6 +74,8 @@ class ModalModel:
                     reference_material: str = "ceramic") -> "ModalModel":
         """Solves a closed surface: ``vertices`` (n, 3) in m before ``scale``, ``triangles``
         (m, 3) vertex indices."""
+    def report(self, hit: Optional[Sequence[float]] = None) -> _Report:
+        """The model's figures and modes (gains at ``hit``): ``resound model --json``."""
     def save(self, path: _Path) -> None:
         """Writes a ``.rmodal`` file (atomically)."""
     @property
@@ -48,17 +90,17 @@ class ModalModel:
     def triangles(self) -> npt.NDArray[np.uint32]:
         """Surface triangles, (m, 3)."""
     @property
-    def reference_material(self) -> str:
-        """The solve's material as JSON (youngs_modulus Pa, poisson_ratio, density kg/m³)."""
-    def frequencies_hz(self, material: Optional[str] = None,
+    def reference_material(self) -> Dict[str, Any]:
+        """The solve's material (youngs_modulus Pa, poisson_ratio, density kg/m³)."""
+    def frequencies_hz(self, material: Optional[_MaterialArg] = None,
                        library: Optional[_Path] = None) -> npt.NDArray[np.float64]:
-        """Undamped frequencies for ``material`` (a reference or JSON; default: the
+        """Undamped frequencies for ``material`` (a Material or a reference; default: the
         reference material), Hz."""
     def hit(self, point: Sequence[float]) -> Tuple[Tuple[float, float, float], float,
                                                    npt.NDArray[np.float64]]:
         """Snaps ``point`` (m) to the surface: (surface point m, distance m, each mode's gain
         there in m per N·s)."""
-    def modes(self, material: str, point: Sequence[float], max_freq_hz: float = 24000.0,
+    def modes(self, material: _MaterialArg, point: Sequence[float], max_freq_hz: float = 24000.0,
               library: Optional[_Path] = None) -> npt.NDArray[np.float64]:
         """The damped modes of an object of ``material`` struck at ``point`` (m), per unit
         impulse: (n, 4) — Hz, 1/s, amplitude, rad."""
@@ -81,6 +123,7 @@ class ModeStatistics:
     def sample(self, seed: int) -> npt.NDArray[np.float64]:
         """An impulse response drawn with ``seed``: modes (n, 4) — Hz, 1/s, amplitude, rad."""
     def to_json(self) -> str: ...
+    def to_dict(self) -> Dict[str, Any]: ...
     def save(self, path: _Path) -> None:
         """Writes a statistics file (atomically)."""
     @staticmethod
@@ -104,8 +147,8 @@ class GrainDictionary:
     @property
     def recordings(self) -> List[Tuple[str, str, int]]:
         """The recordings: (name, contact kind, samples)."""
-    def summary(self) -> str:
-        """The dictionary's figures as JSON."""
+    def summary(self) -> _Report:
+        """The dictionary's figures."""
     def resynthesize(self, recording: Union[int, str], time_scale: float = 1.0, variation: float = 0.0,
                      seed: int = 1) -> npt.NDArray[np.float32]:
         """Rebuilds a recording (index or name), time-scaled and varied: float32 samples at
@@ -113,13 +156,13 @@ class GrainDictionary:
 
 def analyze_file(path: _Path, channel: Optional[int] = None, strike: Optional[int] = None,
                  resample_hz: Optional[int] = None, max_modes: int = 64,
-                 min_db: float = 60.0) -> Tuple[npt.NDArray[np.float64], str]: ...
+                 min_db: float = 60.0) -> Tuple[npt.NDArray[np.float64], _Report]: ...
 def analyze_array(samples: npt.NDArray[np.float64], sample_rate: float,
                   strike: Optional[int] = None, max_modes: int = 64,
-                  min_db: float = 60.0) -> Tuple[npt.NDArray[np.float64], str]: ...
-def get_material(spec: str, library: Optional[_Path] = None) -> str: ...
-def list_materials(library: Optional[_Path] = None) -> str: ...
-def save_material(material_json: str, library: Optional[_Path] = None,
+                  min_db: float = 60.0) -> Tuple[npt.NDArray[np.float64], _Report]: ...
+def get_material(spec: _Path, library: Optional[_Path] = None) -> Material: ...
+def list_materials(library: Optional[_Path] = None) -> List[Material]: ...
+def save_material(material: Material, library: Optional[_Path] = None,
                   replace: bool = False) -> None: ...
 def estimate_material(model: ModalModel, hit: Sequence[float], path: Optional[_Path] = None,
                       samples: Optional[npt.NDArray[np.float64]] = None,
@@ -127,13 +170,13 @@ def estimate_material(model: ModalModel, hit: Sequence[float], path: Optional[_P
                       strike: Optional[int] = None, name: str = "estimated",
                       residual: bool = True,
                       allow_implausible: bool = False,
-                      mic: Optional[Sequence[float]] = None) -> Tuple[str, str]: ...
-def render_strike(material: str, model: ModalModel, hit: Sequence[float],
+                      mic: Optional[Sequence[float]] = None) -> Tuple[Material, _Report]: ...
+def render_strike(material: _MaterialArg, model: ModalModel, hit: Sequence[float],
                   speed_m_s: float = 1.0, duration_s: float = 1.0, sample_rate: int = 48000,
                   residual: bool = True, impactor_mass_kg: Optional[float] = None,
                   impactor_radius_m: float = 0.005,
                   library: Optional[_Path] = None,
-                  mic: Optional[Sequence[float]] = None) -> Tuple[npt.NDArray[np.float32], str]: ...
+                  mic: Optional[Sequence[float]] = None) -> Tuple[npt.NDArray[np.float32], _Report]: ...
 def render_modes(modes: npt.NDArray[np.float64], duration_s: float = 1.0,
                  sample_rate: int = 48000) -> npt.NDArray[np.float32]: ...
 def render_impact(stats: ModeStatistics, seed: int = 0, speed_m_s: float = 1.0,
@@ -141,10 +184,10 @@ def render_impact(stats: ModeStatistics, seed: int = 0, speed_m_s: float = 1.0,
                   impactor_mass_kg: Optional[float] = None,
                   impactor_radius_m: float = 0.005) -> npt.NDArray[np.float32]: ...
 def render_scene(path: _Path, library: Optional[_Path] = None, keep_level: bool = False
-                 ) -> Tuple[npt.NDArray[np.float32], int, str, str]: ...
-def render_scene_json(scene_json: str, base_dir: _Path, library: Optional[_Path] = None,
+                 ) -> Tuple[npt.NDArray[np.float32], int, List[_Report], _Report]: ...
+def render_scene_dict(scene: Dict[str, Any], base_dir: _Path, library: Optional[_Path] = None,
                       keep_level: bool = False
-                      ) -> Tuple[npt.NDArray[np.float32], int, str, str]: ...
+                      ) -> Tuple[npt.NDArray[np.float32], int, List[_Report], _Report]: ...
 def render_scrape(modes: npt.NDArray[np.float64], speed_m_s: Optional[float] = None,
                   trajectory: Optional[npt.NDArray[np.float64]] = None,
                   duration_s: float = 2.0, surface: str = "fractal",
@@ -157,7 +200,7 @@ def grains_analyze(recordings: List[str], output: _Path,
                    sample_rate: Optional[float] = None, kind: str = "auto",
                    kinds: Optional[List[str]] = None, min_db: float = -50.0,
                    peaks: Optional[int] = None, min_corr: float = 0.5,
-                   prune: Optional[float] = None) -> str: ...
+                   prune: Optional[float] = None) -> _Report: ...
 def batch(jobs: _Path, out: _Path, shard: int = 0, shards: int = 1,
-          library: Optional[_Path] = None, cache: Optional[_Path] = None) -> str: ...
+          library: Optional[_Path] = None, cache: Optional[_Path] = None) -> _Report: ...
 def version() -> str: ...
