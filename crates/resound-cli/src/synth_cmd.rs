@@ -163,9 +163,6 @@ pub fn run(a: SynthArgs) -> Result<()> {
         .map(|p| p.as_path())
         .collect();
     crate::util::check_paths(&inputs, &[&a.output])?;
-    if (a.duration * f64::from(a.sample_rate)).round() < 1.0 {
-        bail!("--duration {} s is shorter than one sample", a.duration);
-    }
     let params = StrikeParams {
         speed_m_s: a.velocity,
         impactor_mass_kg: a.impactor_mass,
@@ -177,6 +174,7 @@ pub fn run(a: SynthArgs) -> Result<()> {
         sample_rate_hz: a.sample_rate,
         mic_m: a.mic.as_deref().map(parse_vec3).transpose()?,
     };
+    params.validate().map_err(strike_flag)?;
     let mut strike = match (&a.modes, &a.stats) {
         (Some(p), _) => {
             let modes = resound::files::load_modes(p)?;
@@ -240,4 +238,22 @@ pub fn run(a: SynthArgs) -> Result<()> {
         a.sample_rate
     );
     Ok(())
+}
+
+/// A strike parameter out of range, named by its flag.
+fn strike_flag(e: resound::Error) -> anyhow::Error {
+    const FLAGS: [(&str, &str); 5] = [
+        ("speed_m_s", "--velocity"),
+        ("duration_s", "--duration"),
+        ("sample_rate_hz", "--sample-rate"),
+        ("impactor_radius_m", "--impactor-radius"),
+        ("impactor_mass_kg", "--impactor-mass"),
+    ];
+    match &e {
+        resound::Error::Param { field, .. } => match FLAGS.iter().find(|(f, _)| f == field) {
+            Some((_, flag)) => anyhow::anyhow!("{flag}: {e}"),
+            None => e.into(),
+        },
+        _ => e.into(),
+    }
 }

@@ -24,8 +24,16 @@ pyo3::create_exception!(
 );
 
 /// The CLI's message for `e` (`error: …` without the prefix): the error and its causes.
+/// A parameter out of range names its keyword (`speed_m_s: speed must be …`), as the CLI
+/// names its flag.
 fn err(e: impl Into<anyhow::Error>) -> PyErr {
-    ResoundError::new_err(format!("{:#}", e.into()))
+    let e = e.into();
+    match e.downcast_ref::<resound::Error>() {
+        Some(resound::Error::Param { field, .. }) => {
+            ResoundError::new_err(format!("{field}: {e:#}"))
+        }
+        _ => ResoundError::new_err(format!("{e:#}")),
+    }
 }
 
 /// A library report as Python values (dicts, lists, floats): the document `--json` prints.

@@ -199,3 +199,17 @@ def test_materials_are_values_not_strings():
     assert m.to_dict()["gamma"] == 2e7 and resound.Material.from_json(m.to_json()) == m
     with pytest.raises(TypeError):
         resound.render_strike(3.5, None, [0, 0, 0])
+
+
+def test_a_parameter_out_of_range_is_named_as_each_front_end_names_it(tmp_path, rmodal):
+    # One check in the library; the CLI names its flag, Python its keyword.
+    out = subprocess.run([CLI, "synth", "--material", "metal", "--mesh", str(rmodal), "--hit",
+                          ",".join(map(str, HIT)), "--velocity", "-1", "-o", "x.wav"],
+                         cwd=tmp_path, capture_output=True, text=True)
+    assert out.returncode == 2
+    assert out.stderr.strip() == "error: --velocity: speed must be in [0, 1000) m/s, got -1"
+    model = resound.ModalModel.from_file(rmodal)
+    with pytest.raises(resound.ResoundError) as e:
+        resound.render_strike("metal", model, HIT, speed_m_s=-1.0)
+    assert str(e.value) == "speed_m_s: speed must be in [0, 1000) m/s, got -1"
+    assert not (tmp_path / "x.wav").exists()

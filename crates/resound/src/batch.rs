@@ -22,11 +22,12 @@
 //!   within a shard, and kept across runs in an optional cache directory.
 
 use crate::error::{invalid, Error, Result};
+use crate::model_cache::{KeyBuilder, ModelCache};
 use crate::strike::{render_strike, StrikeParams, Struck};
 use resound_core::{Material, ModalModel};
 use resound_io::library::Library;
 use serde::{Deserialize, Serialize};
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -267,77 +268,36 @@ fn check_job(job: &Job) -> Result<()> {
     Ok(())
 }
 
-type ModelKey = [u8; 32];
-
 /// Models kept in memory (the most recently solved or loaded); jobs of one mesh usually come
 /// together, and a large jobs file must not hold every model at once.
 const MODELS_IN_MEMORY: usize = 8;
 
-struct Models {
-    memory: HashMap<ModelKey, Arc<ModalModel>>,
-    order: std::collections::VecDeque<ModelKey>,
-    cache_dir: Option<PathBuf>,
-    solved: usize,
-}
-
-impl Models {
-    fn get(
-        &mut self,
-        path: &Path,
-        bytes_hash: &blake3::Hash,
-        job: &Job,
-    ) -> Result<Arc<ModalModel>> {
-        let mut h = blake3::Hasher::new();
-        h.update(bytes_hash.as_bytes());
-        h.update(&job.scale.to_le_bytes());
-        h.update(&(job.modes as u64).to_le_bytes());
-        h.update(job.reference_material.as_bytes());
-        let key: ModelKey = *h.finalize().as_bytes();
-        if let Some(m) = self.memory.get(&key) {
-            return Ok(Arc::clone(m));
-        }
-        let file = self.cache_dir.as_ref().map(|d| {
-            d.join(format!(
-                "{}.rmodal",
-                &blake3::Hash::from(key).to_hex()[..32]
-            ))
-        });
-        let cached = file
-            .as_ref()
-            .and_then(|f| resound_io::model_file::load(f).ok());
-        let model = match cached {
-            Some(m) => m,
-            None => {
-                let params = crate::object::ObjectParams {
-                    scale: job.scale,
-                    modal: resound_modal::ModalParams {
-                        n_modes: Some(job.modes),
-                        ..Default::default()
-                    },
-                    reference_material: Material::parse(&job.reference_material)?,
-                };
-                let m = crate::object::load_object(path, &params, &|_| {})?;
-                self.solved += 1;
-                if let Some(f) = &file {
-                    // A cache that cannot be written only costs time later.
-                    if let Some(d) = f.parent() {
-                        let _ = std::fs::create_dir_all(d);
-                    }
-                    let _ = resound_io::model_file::save(f, &m);
-                }
-                m
-            }
+/// The model of `job`'s mesh (`path`, whose bytes hash to `bytes_hash`) from the cache, solved
+/// when it is in neither memory nor the cache directory.
+fn job_model(
+    models: &mut ModelCache,
+    path: &Path,
+    bytes_hash: &blake3::Hash,
+    job: &Job,
+) -> Result<Arc<ModalModel>> {
+    let key = KeyBuilder::new()
+        .bytes(bytes_hash.as_bytes())
+        .f64s(&[job.scale])
+        .count(job.modes)
+        .bytes(job.reference_material.as_bytes())
+        .finish();
+    let solve = || {
+        let params = crate::object::ObjectParams {
+            scale: job.scale,
+            modal: resound_modal::ModalParams {
+                n_modes: Some(job.modes),
+                ..Default::default()
+            },
+            reference_material: Material::parse(&job.reference_material)?,
         };
-        let model = Arc::new(model);
-        if self.order.len() == MODELS_IN_MEMORY {
-            if let Some(old) = self.order.pop_front() {
-                self.memory.remove(&old);
-            }
-        }
-        self.order.push_back(key);
-        self.memory.insert(key, Arc::clone(&model));
-        Ok(model)
-    }
+        crate::object::load_object(path, &params, &|_| {})
+    };
+    Ok(models.get_or_solve(key, solve)?.0)
 }
 
 /// Reads a manifest, dropping a last line cut short; rewrites it (atomically) without that
@@ -440,12 +400,7 @@ pub fn run_batch(
     }
     info.shard_jobs = mine.len();
     let library = crate::material::read_library(params.library.as_deref())?;
-    let mut models = Models {
-        memory: HashMap::new(),
-        order: std::collections::VecDeque::new(),
-        cache_dir: params.cache_dir.clone(),
-        solved: 0,
-    };
+    let mut models = ModelCache::new(params.cache_dir.clone(), MODELS_IN_MEMORY);
     let mut manifest = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
@@ -485,7 +440,7 @@ pub fn run_batch(
             line,
         });
     }
-    info.models_solved = models.solved;
+    info.models_solved = models.solved();
     info.elapsed_s = t0.elapsed().as_secs_f64();
     Ok(info)
 }
@@ -497,7 +452,7 @@ fn run_job(
     base: &Path,
     out: &Path,
     library: Option<&Library>,
-    models: &mut Models,
+    models: &mut ModelCache,
     done: &mut HashSet<String>,
     info: &mut BatchInfo,
     manifest: &mut std::fs::File,
@@ -560,7 +515,7 @@ fn run_job(
             }
             let m: &Arc<ModalModel> = match &model {
                 Some(m) => m,
-                None => model.insert(models.get(&mesh_path, &mesh_hash, job)?),
+                None => model.insert(job_model(models, &mesh_path, &mesh_hash, job)?),
             };
             let at = m.hit(hit)?;
             let params = StrikeParams {

@@ -45,6 +45,15 @@ pub enum Error {
     /// A value the pipeline refuses, with the reason.
     #[error("{0}")]
     Invalid(String),
+    /// A parameter out of its range. `field` is the Params struct's field name (the Python
+    /// keyword): front ends name their own flag for it (`speed_m_s` → `--velocity`).
+    #[error("{message}")]
+    Param {
+        /// The field of the Params struct.
+        field: &'static str,
+        /// What is wrong, with the value.
+        message: String,
+    },
     /// The material library already has an entry of this name (and replacing it was not
     /// asked for). Front ends add how to ask (`--force`, `replace=True`).
     #[error("the library already has a material named {0:?}")]

@@ -52,6 +52,7 @@ pub mod files;
 pub mod grain_files;
 pub mod material;
 pub mod mesh;
+pub mod model_cache;
 pub mod object;
 pub mod radiation;
 pub mod recording;

@@ -14,10 +14,10 @@
 
 use crate::error::{invalid, Error, Result};
 use crate::material::resolve_material;
+use crate::model_cache::{KeyBuilder, ModelCache};
 use resound_core::{Material, ModalModel, SoundMaterial};
 use resound_fem::{primitive, SurfaceMesh};
 use resound_io::library::Library;
-use resound_io::model_file::Fnv1a;
 use resound_io::scene::{BodyFile, SceneFile, ShapeFile};
 use resound_modal::{ModalBuilder, ModalParams};
 use resound_physics::{BodySound, BodySpec, SceneParams, Shape};
@@ -82,71 +82,45 @@ fn geometry(b: &BodyFile, base_dir: &Path) -> Result<(SurfaceMesh, Shape)> {
     })
 }
 
-/// Modal models solved during one scene build, by content hash: identical bodies are solved
-/// once even without a cache directory.
-type Solved = std::collections::HashMap<u64, (std::sync::Arc<ModalModel>, Option<PathBuf>)>;
-
+/// The modal model of a scene body: from the model cache (identical bodies are solved once
+/// per build even without a cache directory), solved when it is in neither memory nor the
+/// directory. Returns it with its cache file.
 fn modal_model(
     mesh: &SurfaceMesh,
     material: &Material,
     b: &BodyFile,
-    cache_dir: Option<&Path>,
-    solved: &mut Solved,
+    models: &mut ModelCache,
 ) -> Result<(std::sync::Arc<ModalModel>, Option<PathBuf>)> {
-    let mut hash = Fnv1a::new();
+    let mut key = KeyBuilder::new();
     for v in &mesh.vertices {
-        for c in v {
-            hash.write(&c.to_le_bytes());
-        }
+        key.f64s(v);
     }
     for t in &mesh.triangles {
         for c in t {
-            hash.write(&c.to_le_bytes());
+            key.bytes(&c.to_le_bytes());
         }
     }
-    for x in [
+    key.f64s(&[
         material.youngs_modulus,
         material.poisson_ratio,
         material.density,
-    ] {
-        hash.write(&x.to_le_bytes());
-    }
-    hash.write(&(b.modes as u64).to_le_bytes());
-    hash.write(&(b.resolution as u64).to_le_bytes());
-    let h = hash.finish();
-    if let Some((m, f)) = solved.get(&h) {
-        return Ok((std::sync::Arc::clone(m), f.clone()));
-    }
-    let file = cache_dir.map(|d| d.join(format!("{h:016x}.rmodal")));
-    if let Some(f) = &file {
-        if let Ok(m) = resound_io::model_file::load(f) {
-            let m = std::sync::Arc::new(m);
-            solved.insert(h, (std::sync::Arc::clone(&m), file.clone()));
-            return Ok((m, file));
-        }
-    }
-    let params = ModalParams {
-        n_modes: Some(b.modes),
-        max_freq_hz: None,
-        resolution: b.resolution,
-        target_voxels: if b.resolution == 0 { 1500 } else { 0 },
-        sturm_check: false,
-        ..Default::default()
-    };
-    let model = ModalBuilder::surface(mesh, material)
-        .params(params)
-        .solve()?
-        .model;
-    if let Some(f) = &file {
-        // A cache that cannot be written only costs time later.
-        if let Some(d) = f.parent() {
-            let _ = std::fs::create_dir_all(d);
-        }
-        let _ = resound_io::model_file::save(f, &model);
-    }
-    let model = std::sync::Arc::new(model);
-    solved.insert(h, (std::sync::Arc::clone(&model), file.clone()));
-    Ok((model, file))
+    ])
+    .count(b.modes)
+    .count(b.resolution);
+    models.get_or_solve(key.finish(), || {
+        let params = ModalParams {
+            n_modes: Some(b.modes),
+            max_freq_hz: None,
+            resolution: b.resolution,
+            target_voxels: if b.resolution == 0 { 1500 } else { 0 },
+            sturm_check: false,
+            ..Default::default()
+        };
+        Ok(ModalBuilder::surface(mesh, material)
+            .params(params)
+            .solve()?
+            .model)
+    })
 }
 
 /// Acoustic transfers fitted or loaded during one scene build, by modal model.
@@ -174,8 +148,7 @@ fn body_transfer(
                 &resound_modal::radiation::TransferParams::default(),
             )?;
             if let Some(f) = cache_file {
-                // A cache that cannot be written only costs time later.
-                let _ = resound_io::model_file::save(f, &m);
+                crate::model_cache::store(f, &m);
             }
             std::sync::Arc::new(
                 m.transfer
@@ -319,7 +292,7 @@ pub fn build_scene(
             scene.body.len()
         )));
     }
-    let mut solved = Solved::new();
+    let mut models = ModelCache::new(opts.cache_dir.clone(), usize::MAX);
     let mut transfers = Transfers::new();
     let mut bodies = Vec::with_capacity(scene.body.len());
     let mut loaded: std::collections::HashMap<
@@ -381,9 +354,7 @@ pub fn build_scene(
                 poisson_ratio: b.poisson,
                 density: b.density,
             };
-            let (model, file) =
-                modal_model(&mesh, &elastic, b, opts.cache_dir.as_deref(), &mut solved)
-                    .map_err(fail)?;
+            let (model, file) = modal_model(&mesh, &elastic, b, &mut models).map_err(fail)?;
             let transfer = if scene.radiation {
                 Some(
                     body_transfer(&model, file.as_deref(), &mut transfers, opts.progress)

@@ -3,7 +3,7 @@
 //! spring or impulse), plus the material's transferred residual (Ren §6.2) or the statistics'
 //! transient bands.
 
-use crate::error::{invalid, Result};
+use crate::error::{invalid, Error, Result};
 use resound_core::{DampedMode, Hit, Material, ModalModel, SoundMaterial};
 use resound_stats::ModeStatistics;
 use resound_synth::excitation::{ContactModel, Elastic, Impact};
@@ -178,32 +178,56 @@ pub struct Strike {
     pub info: StrikeInfo,
 }
 
+impl StrikeParams {
+    /// Checks every parameter's range (what [`render_strike`] checks first): a front end
+    /// calls it before slow work such as a modal solve.
+    ///
+    /// # Errors
+    /// [`Error::Param`] naming the field.
+    pub fn validate(&self) -> Result<()> {
+        check(self)
+    }
+}
+
 fn check(p: &StrikeParams) -> Result<()> {
+    let param = |field, message| Error::Param { field, message };
     let fs = f64::from(p.sample_rate_hz);
     if !resound_core::limits::sample_rate_ok(fs) {
-        return Err(invalid(resound_core::limits::sample_rate_message(fs)));
+        return Err(param(
+            "sample_rate_hz",
+            resound_core::limits::sample_rate_message(fs),
+        ));
     }
     if !(p.duration_s > 0.0 && p.duration_s <= 600.0) || (p.duration_s * fs).round() < 1.0 {
-        return Err(invalid(format!(
-            "duration must be in (0, 600] s and at least one sample, got {}",
-            p.duration_s
-        )));
+        return Err(param(
+            "duration_s",
+            format!(
+                "duration must be in (0, 600] s and at least one sample, got {}",
+                p.duration_s
+            ),
+        ));
     }
     if !(p.speed_m_s.is_finite() && p.speed_m_s >= 0.0 && p.speed_m_s < 1000.0) {
-        return Err(invalid(format!(
-            "speed must be in [0, 1000) m/s, got {}",
-            p.speed_m_s
-        )));
+        return Err(param(
+            "speed_m_s",
+            format!("speed must be in [0, 1000) m/s, got {}", p.speed_m_s),
+        ));
     }
     if !(p.impactor_radius_m > 0.0 && p.impactor_radius_m < 10.0) {
-        return Err(invalid(format!(
-            "impactor radius must be in (0, 10) m, got {}",
-            p.impactor_radius_m
-        )));
+        return Err(param(
+            "impactor_radius_m",
+            format!(
+                "impactor radius must be in (0, 10) m, got {}",
+                p.impactor_radius_m
+            ),
+        ));
     }
     if let Some(m) = p.impactor_mass_kg {
         if !(m > 0.0 && m.is_finite()) {
-            return Err(invalid(format!("impactor mass must be > 0 kg, got {m}")));
+            return Err(param(
+                "impactor_mass_kg",
+                format!("impactor mass must be > 0 kg, got {m}"),
+            ));
         }
     }
     Ok(())
