@@ -1,0 +1,157 @@
+//! A scene body's checks and its rapier collider.
+
+use super::*;
+
+/// Fastest initial speed of a body, m/s (three times the speed of sound).
+pub(super) const MAX_SPEED_M_S: f64 = 1000.0;
+/// Fastest initial spin of a body, rad/s.
+pub(super) const MAX_SPIN_RAD_S: f64 = 1.0e4;
+/// Farthest a body may start from the origin, m.
+pub(super) const MAX_EXTENT_M: f64 = 1.0e4;
+
+pub(super) fn v3(a: [f64; 3]) -> Vector {
+    Vector::new(a[0] as f32, a[1] as f32, a[2] as f32)
+}
+
+pub(super) fn arr(v: Vector) -> [f64; 3] {
+    [f64::from(v.x), f64::from(v.y), f64::from(v.z)]
+}
+
+pub(super) fn check_body(b: &BodySpec) -> Result<(), SceneError> {
+    let err = |m: String| SceneError::Body {
+        name: b.name.clone(),
+        message: m,
+    };
+    let finite3 = |a: &[f64; 3]| a.iter().all(|v| v.is_finite());
+    if !(b.density.is_finite() && b.density > 0.0) {
+        return Err(err(format!("density must be > 0, got {}", b.density)));
+    }
+    if !(finite3(&b.position) && finite3(&b.rotation) && finite3(&b.linvel) && finite3(&b.angvel)) {
+        return Err(err(
+            "position, rotation and velocities must be finite".into()
+        ));
+    }
+    // rapier works in f32 and silently stops integrating absurd states (a ball thrown at
+    // 1e30 m/s just fell straight down): refuse what no contact-sound scene needs.
+    let norm = |a: &[f64; 3]| a.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if norm(&b.linvel) > MAX_SPEED_M_S
+        || norm(&b.angvel) > MAX_SPIN_RAD_S
+        || norm(&b.position) > MAX_EXTENT_M
+    {
+        return Err(err(format!(
+            "velocity must be at most {MAX_SPEED_M_S} m/s, angular velocity at most {MAX_SPIN_RAD_S} rad/s and the position within {MAX_EXTENT_M} m of the origin (got |v| = {:.3e} m/s, |ω| = {:.3e} rad/s, |x| = {:.3e} m)",
+            norm(&b.linvel),
+            norm(&b.angvel),
+            norm(&b.position)
+        )));
+    }
+    if !((0.0..=1.0).contains(&b.restitution) && b.friction >= 0.0 && b.friction.is_finite()) {
+        return Err(err(format!(
+            "restitution must be in [0, 1] and friction ≥ 0 (got {}, {})",
+            b.restitution, b.friction
+        )));
+    }
+    let pos = |v: f64| v.is_finite() && v > 0.0;
+    let ok = match &b.shape {
+        Shape::Ball(r) => pos(*r),
+        Shape::Cuboid(h) => h.iter().all(|&v| pos(v)),
+        Shape::Cylinder {
+            half_height,
+            radius,
+        } => pos(*half_height) && pos(*radius),
+        Shape::ConvexHull(p) => p.len() >= 4 && p.iter().all(finite3),
+        Shape::TriMesh {
+            vertices,
+            triangles,
+        } => {
+            if !b.fixed {
+                return Err(err(
+                    "a triangle-mesh collider must be fixed (dynamic bodies use convex hulls)"
+                        .into(),
+                ));
+            }
+            !triangles.is_empty()
+                && vertices.iter().all(finite3)
+                && triangles
+                    .iter()
+                    .all(|t| t.iter().all(|&i| (i as usize) < vertices.len()))
+        }
+    };
+    if !ok {
+        return Err(err(format!("unusable shape {:?}", shape_kind(&b.shape))));
+    }
+    if let Some(s) = &b.sound {
+        if s.vertices.is_empty() || s.gains.len() != s.vertices.len() * s.modes.len() {
+            return Err(err(format!(
+                "sound model: {} gains for {} vertices × {} modes",
+                s.gains.len(),
+                s.vertices.len(),
+                s.modes.len()
+            )));
+        }
+    }
+    Ok(())
+}
+
+pub(super) fn shape_kind(s: &Shape) -> &'static str {
+    match s {
+        Shape::Ball(_) => "ball",
+        Shape::Cuboid(_) => "cuboid",
+        Shape::Cylinder { .. } => "cylinder",
+        Shape::ConvexHull(_) => "convex hull",
+        Shape::TriMesh { .. } => "triangle mesh",
+    }
+}
+
+pub(super) fn collider(b: &BodySpec, index: usize) -> Result<ColliderBuilder, SceneError> {
+    let builder = match &b.shape {
+        Shape::Ball(r) => ColliderBuilder::ball(*r as f32),
+        Shape::Cuboid(h) => ColliderBuilder::cuboid(h[0] as f32, h[1] as f32, h[2] as f32),
+        Shape::Cylinder {
+            half_height,
+            radius,
+        } => ColliderBuilder::cylinder(*half_height as f32, *radius as f32).position(
+            Pose::rotation(Vector::new(std::f32::consts::FRAC_PI_2, 0.0, 0.0)),
+        ),
+        Shape::ConvexHull(p) => {
+            let pts: Vec<Vector> = p.iter().map(|&q| v3(q)).collect();
+            ColliderBuilder::convex_hull(&pts).ok_or_else(|| SceneError::Body {
+                name: b.name.clone(),
+                message: "no convex hull (flat or degenerate points)".into(),
+            })?
+        }
+        Shape::TriMesh {
+            vertices,
+            triangles,
+        } => ColliderBuilder::trimesh(vertices.iter().map(|&q| v3(q)).collect(), triangles.clone())
+            .map_err(|e| SceneError::Body {
+                name: b.name.clone(),
+                message: format!("triangle mesh: {e}"),
+            })?,
+    };
+    Ok(builder
+        .density(b.density as f32)
+        .restitution(b.restitution as f32)
+        .friction(b.friction as f32)
+        .user_data(index as u128))
+}
+
+/// A typical contact radius of a body, m (the radius of curvature Hertz contact sees).
+pub(super) fn contact_radius(s: &Shape) -> f64 {
+    match s {
+        Shape::Ball(r) => *r,
+        Shape::Cuboid(h) => radius_from_extents(h.map(|x| 2.0 * x)),
+        Shape::Cylinder { radius, .. } => *radius,
+        Shape::ConvexHull(p) | Shape::TriMesh { vertices: p, .. } => {
+            let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+            for q in p {
+                for c in 0..3 {
+                    lo[c] = lo[c].min(q[c]);
+                    hi[c] = hi[c].max(q[c]);
+                }
+            }
+            radius_from_extents([0, 1, 2].map(|c| hi[c] - lo[c]))
+        }
+    }
+    .max(1e-4)
+}
