@@ -1,4 +1,4 @@
-"""Shapes the tests solve: built in code, no files."""
+"""What the tests solve and simulate: shapes built in code, a small scene; no files."""
 
 import numpy as np
 
@@ -27,3 +27,28 @@ def box(x=0.08, y=0.06, z=0.05):
                 tri = [[a, c, b] for a, b, c in tri]
             t += tri
     return v, np.array(t, dtype=np.uint32)
+
+
+# A steel ball rolling off onto a wooden table (a scene file's text).
+SCENE_TOML = """
+duration = 0.6
+seed = 3
+[listener]
+position = [0.0, 0.3, 0.5]
+[[body]]
+name = "table"
+fixed = true
+shape = { box = [0.6, 0.04, 0.4] }
+material = "preset:wood"
+density = 700
+position = [0.0, -0.02, 0.0]
+modes = 12
+[[body]]
+name = "ball"
+shape = { sphere = 0.02 }
+material = "preset:steel"
+density = 7850
+position = [0.0, 0.22, 0.0]
+velocity = [0.3, 0.0, 0.0]
+modes = 8
+"""

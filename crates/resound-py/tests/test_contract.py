@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import resound
-from shapes import box
+from shapes import SCENE_TOML, box
 
 REPO = Path(__file__).resolve().parents[3]
 ASSETS = REPO / "assets"
@@ -154,27 +154,7 @@ def test_estimate_reports_and_materials_are_one_document(tmp_path, rmodal):
 
 
 def test_scene_summaries_are_one_document(tmp_path):
-    (tmp_path / "s.toml").write_text("""
-duration = 0.4
-seed = 2
-[listener]
-position = [0.0, 0.3, 0.5]
-[[body]]
-name = "table"
-fixed = true
-shape = { box = [0.6, 0.04, 0.4] }
-material = "preset:wood"
-density = 700
-position = [0.0, -0.02, 0.0]
-modes = 10
-[[body]]
-name = "ball"
-shape = { sphere = 0.02 }
-material = "preset:steel"
-density = 7850
-position = [0.0, 0.15, 0.0]
-modes = 6
-""")
+    (tmp_path / "s.toml").write_text(SCENE_TOML)
     doc = cli_json("scene", "s.toml", "-o", "s.wav", "--events", "ev.jsonl", "--no-cache",
                    "--json", cwd=tmp_path)
     r = resound.render_scene(tmp_path / "s.toml")

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import resound
-from shapes import box
+from shapes import SCENE_TOML, box
 
 REPO = Path(__file__).resolve().parents[3]
 ASSETS = REPO / "assets"
@@ -331,28 +331,6 @@ def test_the_ray_recipe_on_a_local_instance_with_two_workers_makes_the_unsharded
     assert all(m.stat().st_size > 0 for m in (tmp_path / "ray-out").glob("manifest-*.jsonl"))
 
 
-SCENE_TOML = """
-duration = 0.6
-seed = 3
-[listener]
-position = [0.0, 0.3, 0.5]
-[[body]]
-name = "table"
-fixed = true
-shape = { box = [0.6, 0.04, 0.4] }
-material = "preset:wood"
-density = 700
-position = [0.0, -0.02, 0.0]
-modes = 12
-[[body]]
-name = "ball"
-shape = { sphere = 0.02 }
-material = "preset:steel"
-density = 7850
-position = [0.0, 0.22, 0.0]
-velocity = [0.3, 0.0, 0.0]
-modes = 8
-"""
 
 
 def scene_in_code(ball_material="preset:steel"):
