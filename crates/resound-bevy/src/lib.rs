@@ -678,7 +678,8 @@ struct Side {
 
 fn contact_side(bodies: &Query<BodyParts>, e: Entity) -> Option<Side> {
     let (_, t, v, mass, rb, collider, props, snd) = bodies.get(e).ok()?;
-    let dynamic = matches!(rb, Some(RigidBody::Dynamic) | None);
+    // A collider without a rigid body is static in rapier.
+    let dynamic = matches!(rb, Some(RigidBody::Dynamic));
     // rapier's mass, else the collider's (a body spawned this frame has none reported yet);
     // a body with neither is taken as immovable.
     let from_collider = || {

@@ -164,7 +164,7 @@ def test_scene_summaries_are_one_document(tmp_path):
     assert differences(events, r.events) == []
 
 
-def test_materials_are_values_not_strings():
+def test_materials_are_values_not_strings(rmodal):
     steel = resound.material("preset:steel")
     assert isinstance(steel, resound.Material)
     assert steel == resound.Material.from_dict(steel.to_dict())
@@ -177,8 +177,8 @@ def test_materials_are_values_not_strings():
         resound.Material("bad", -1.0, 1e-7, 1e6, 1.0)
     m = resound.Material("mine", 2.0, 1e-7, 2e7, 1.0)
     assert m.to_dict()["gamma"] == 2e7 and resound.Material.from_json(m.to_json()) == m
-    with pytest.raises(TypeError):
-        resound.render_strike(3.5, None, [0, 0, 0])
+    with pytest.raises(TypeError, match="a material is a Material"):
+        resound.render_strike(3.5, resound.ModalModel.from_file(rmodal), HIT)
 
 
 def test_a_parameter_out_of_range_is_named_as_each_front_end_names_it(tmp_path, rmodal):
