@@ -812,7 +812,7 @@ pub mod drop_scene {
             &model,
             &hit,
             &EstimateMaterialParams::default(),
-            &|| {},
+            &|_| {},
         )?;
         let sound = Sounding::from_material(&model, &material, 0, 48_000.0);
         let mut app = app(&sound, &[0.2, 0.35, 0.5]);

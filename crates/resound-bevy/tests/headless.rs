@@ -354,7 +354,6 @@ fn a_game_and_the_same_scene_offline_excite_the_same_impact() {
         std::path::Path::new("."),
         &resound::scene::SceneRenderParams::default(),
         &|_| {},
-        &|_| {},
     )
     .unwrap();
     let first = offline

@@ -1,7 +1,7 @@
 //! `resound batch`: render a jobs file (JSON lines) to content-addressed files, one shard per
 //! process.
 
-use crate::util::{bar, print_json, warn_all};
+use crate::util::{print_json, warn_all};
 use anyhow::{bail, Result};
 use clap::Args;
 use resound::batch::{parse_shard, run_batch, BatchParams};
@@ -39,14 +39,10 @@ pub fn run(a: BatchArgs) -> Result<()> {
         library: a.library.clone(),
         cache_dir: a.cache.clone(),
     };
-    let pb = std::cell::OnceCell::new();
-    let info = run_batch(&a.jobs, &params, &|p| {
-        let pb = pb.get_or_init(|| bar("batch", p.total as u64, "jobs"));
-        pb.inc(1);
-    })?;
-    if let Some(pb) = pb.get() {
-        pb.finish_and_clear();
-    }
+    let pb = crate::util::Bar::new("batch");
+    let info = run_batch(&a.jobs, &params, &pb.callback());
+    pb.finish_and_clear();
+    let info = info?;
     warn_all(&info.warnings);
     if a.json {
         print_json(&info)?;

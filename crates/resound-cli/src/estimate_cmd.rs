@@ -1,17 +1,16 @@
 //! `resound estimate` and `resound materials`: material estimation and the material library.
 
-use crate::util::{bar, parse_vec3, print_json, spinner, stage_message, warn_all};
+use crate::util::{parse_vec3, print_json, warn_all, Bar};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
-use resound::core::{Material, ModalModel};
+use resound::core::Material;
 use resound::io::library::{read_material, write_material};
 use resound::material::{
-    check_name_free, estimate_material_from, estimate_plot, library_material as get,
-    list_materials, open_library, read_library, store_material, take_tick_count,
-    EstimateMaterialParams, Origin, TakeInput,
+    check_name_free, estimate_files, estimate_plot, library_material as get, list_materials,
+    open_library, read_library, store_material, EstimateFiles, EstimateMaterialParams, Origin,
 };
-use resound::object::{load_object, ObjectParams};
-use resound::recording::{analyze_takes, TakeSelection};
+use resound::object::ObjectParams;
+use resound::recording::TakeSelection;
 use resound::signal::AnalyzeParams;
 use std::path::{Path, PathBuf};
 
@@ -84,46 +83,20 @@ pub struct EstimateArgs {
     pub mic: Option<String>,
 }
 
-/// A modal model from a saved `.rmodal` or a mesh solved with `reference_material`, with a
-/// spinner.
-pub fn load_model(
-    path: &Path,
-    scale: f64,
-    modes: usize,
-    reference_material: &str,
-) -> Result<ModalModel> {
-    let params = ObjectParams {
+/// The object settings of `--scale`, `--modes` and `--reference-material`.
+pub fn object_params(scale: f64, modes: usize, reference_material: &str) -> Result<ObjectParams> {
+    Ok(ObjectParams {
         scale,
         modal: resound::modal::ModalParams {
             n_modes: Some(modes),
             ..Default::default()
         },
         reference_material: Material::parse(reference_material)?,
-    };
-    let pb = spinner("modal");
-    let progress = |s| stage_message(&pb, s);
-    let model = load_object(path, &params, &progress);
-    pb.finish_and_clear();
-    Ok(model?)
-}
-
-/// Snaps a hit to the model's surface, with a note when it moved.
-pub fn snap(model: &ModalModel, query: [f64; 3]) -> Result<resound::core::Hit> {
-    let hit = model.hit(query)?;
-    if hit.at.distance > 1e-6 {
-        eprintln!(
-            "note: hit point {query:?} is {:.2} mm off the surface; using the nearest surface point {:?}",
-            hit.at.distance * 1e3,
-            hit.at.point
-        );
-    }
-    Ok(hit)
+    })
 }
 
 /// Runs `estimate`.
 pub fn run(a: EstimateArgs) -> Result<()> {
-    let query = parse_vec3(&a.hit)?;
-    let mic = a.mic.as_deref().map(parse_vec3).transpose()?;
     let outs: Vec<&Path> = a
         .output
         .iter()
@@ -134,111 +107,65 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     inputs.push(&a.mesh);
     crate::util::check_paths(&inputs, &outs)?;
     if let Some(name) = &a.name {
-        check_name_free(a.library.as_deref(), name, a.force).map_err(force_hint)?;
+        check_name_free(a.library.as_deref(), name, a.force)?;
     }
     let name = a.name.clone().unwrap_or_else(|| {
         a.audio[0]
             .file_stem()
             .map_or("estimated".into(), |s| s.to_string_lossy().into_owned())
     });
-    let ap = AnalyzeParams {
-        highpass_hz: a.highpass_hz,
-        strike: a.take.strike_index()?,
-        ..AnalyzeParams::default()
+    let job = EstimateFiles {
+        recordings: a.audio.clone(),
+        recording: a.take.recording(),
+        analyze: AnalyzeParams {
+            highpass_hz: a.highpass_hz,
+            strike: a.take.strike_index()?,
+            ..AnalyzeParams::default()
+        },
+        select: TakeSelection {
+            every_strike: a.every_strike,
+            every_channel: a.every_channel,
+        },
+        object: a.mesh.clone(),
+        object_params: object_params(a.scale, a.modes, &a.reference_material)?,
+        hit_m: parse_vec3(&a.hit)?,
+        params: EstimateMaterialParams {
+            name: name.clone(),
+            residual: !a.no_residual,
+            allow_implausible: a.allow_implausible,
+            mic_m: a.mic.as_deref().map(parse_vec3).transpose()?,
+            ..Default::default()
+        },
     };
-    let select = TakeSelection {
-        every_strike: a.every_strike,
-        every_channel: a.every_channel,
-    };
-    let mut analysed = Vec::new();
-    for path in &a.audio {
-        let (takes, skipped) = analyze_takes(path, &a.take.recording(), &ap, select)?;
-        for s in skipped {
-            eprintln!("note: skipped {s}");
-        }
-        analysed.extend(takes);
-    }
-    for t in &analysed {
-        warn_all(&t.analysis.warnings);
-    }
-    let analysis = &analysed[0].analysis;
-    let mut model = load_model(&a.mesh, a.scale, a.modes, &a.reference_material)?;
-    if mic.is_some() && model.transfer.is_none() {
-        // Fitted once here, for the estimate and its picture.
-        let pb = spinner("acoustic transfer");
-        let t1 = std::time::Instant::now();
-        let fitted = resound::radiation::add_transfer(
-            &mut model,
-            &resound::modal::TransferParams::default(),
-        );
-        pb.finish_and_clear();
-        let info = fitted?;
-        eprintln!(
-            "note: fitted the acoustic transfer of {} modes in {:.1} s (store it with `resound \
-             modal --transfer -o model.rmodal` to skip this)",
-            model.n_modes(),
-            t1.elapsed().as_secs_f64()
-        );
-        if info.poorly_fitted > 0 {
-            eprintln!(
-                "warning: the acoustic transfer fits {} modes poorly (misfit > {})",
-                info.poorly_fitted,
-                resound::core::limits::POOR_TRANSFER_MISFIT
-            );
-        }
-    }
-    let hit = snap(&model, query)?;
-    let takes: Vec<TakeInput<'_>> = analysed
-        .iter()
-        .map(|t| TakeInput {
-            analysis: &t.analysis,
-            model: &model,
-            hit: &hit,
-            label: &t.label,
-        })
-        .collect();
-    let params = EstimateMaterialParams {
-        name: name.clone(),
-        residual: !a.no_residual,
-        recording_name: analysed
-            .iter()
-            .map(|t| t.label.as_str())
-            .collect::<Vec<_>>()
-            .join("; "),
-        object_name: a.mesh.display().to_string(),
-        allow_implausible: a.allow_implausible,
-        mic_m: mic,
-        ..Default::default()
-    };
-    let unit = if takes.len() == 1 { "starts" } else { "fits" };
-    let pb = bar(
-        "estimate",
-        take_tick_count(&takes, &params.estimate) as u64,
-        unit,
-    );
-    let tick = || pb.inc(1);
-    let (material, info) = estimate_material_from(&takes, &params, &tick)?;
+    let pb = Bar::new("estimate");
+    let out = estimate_files(&job, &pb.callback());
     pb.finish_and_clear();
+    let out = out?;
+    for n in &out.notes {
+        eprintln!("note: {n}");
+    }
+    let (material, info) = (&out.material, &out.info);
     warn_all(&info.warnings);
     if let Some(o) = &a.output {
-        write_material(o, &material)?;
+        write_material(o, material)?;
     }
     if let Some(path) = &a.plot {
         let title = a.audio[0]
             .file_name()
             .map_or(String::new(), |s| s.to_string_lossy().into_owned());
+        let analysis = &out.takes[0].analysis;
         estimate_plot(
             path,
             &title,
             analysis,
-            &model,
-            &hit,
-            &info,
-            &params.estimate,
+            &out.model,
+            &out.hit,
+            info,
+            &job.params.estimate,
         )?;
     }
     if a.name.is_some() {
-        store_material(a.library.as_deref(), &material, a.force).map_err(force_hint)?;
+        store_material(a.library.as_deref(), material, a.force)?;
     }
     let p = &info.params;
     if a.json {
@@ -396,7 +323,7 @@ pub fn run_materials(c: MaterialsCmd) -> Result<()> {
         }
         MaterialsCmd::Import(a) => {
             let m = read_material(&a.file)?;
-            store_material(a.library.as_deref(), &m, a.force).map_err(force_hint)?;
+            store_material(a.library.as_deref(), &m, a.force)?;
             eprintln!("imported {:?}", m.name);
         }
         MaterialsCmd::Export(a) => {
@@ -413,12 +340,4 @@ pub fn run_materials(c: MaterialsCmd) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// A library refusal, with the flag that overrides it.
-fn force_hint(e: resound::Error) -> anyhow::Error {
-    match e {
-        resound::Error::Exists(_) => anyhow::anyhow!("{e}; pass --force to replace it"),
-        e => e.into(),
-    }
 }

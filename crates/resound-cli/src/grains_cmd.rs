@@ -5,7 +5,7 @@ use clap::{Args, Subcommand, ValueEnum};
 use resound::grain_files::{analyze_to_file, load_recordings, recording_index, summary, KindRule};
 use resound::grains::quality::spectral_convergence_db;
 use resound::grains::resynth::{resynthesize, ResynthParams};
-use resound::grains::{AnalyzeParams, Contact, Stage};
+use resound::grains::{AnalyzeParams, Contact};
 use std::path::PathBuf;
 
 /// `resound grains …`.
@@ -133,16 +133,8 @@ pub fn run(c: GrainsCmd) -> Result<()> {
             params.segment.min_db = a.min_db;
             params.pattern.peaks_per_part = a.peaks;
             params.pattern.min_corr = a.min_corr;
-            let pb = crate::util::stages("grains");
-            let report = |s: Stage, f: f64| {
-                let prefix = match s {
-                    Stage::Split => "SMS",
-                    Stage::Grains => "grains",
-                    Stage::Patterns => "patterns",
-                };
-                pb.set_stage(prefix, (f * 1000.0) as u64);
-            };
-            let made = analyze_to_file(&recs, fs, &params, a.prune, &a.output, &report);
+            let pb = crate::util::Bar::new("grains");
+            let made = analyze_to_file(&recs, fs, &params, a.prune, &a.output, &pb.callback());
             pb.finish_and_clear();
             let made = made?;
             let (sum, size) = (&made.summary, made.file_bytes);

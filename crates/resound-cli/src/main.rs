@@ -8,11 +8,11 @@ use std::process::ExitCode;
 
 mod analyze_cmd;
 mod batch_cmd;
+mod bench_cmd;
 mod compare_cmd;
 mod demo_cmd;
 mod estimate_cmd;
 mod grains_cmd;
-mod live;
 mod mesh_cmd;
 mod modal_cmd;
 mod scene_cmd;
@@ -70,10 +70,10 @@ enum Command {
     Model(modal_cmd::ModelInfoArgs),
     /// Run the benchmarks and print their figures (table or JSON).
     #[command(subcommand)]
-    Bench(resound_bench::run::BenchCmd),
+    Bench(bench_cmd::BenchCmd),
     /// One benchmark case in a fresh process (used by `bench` to measure peak memory).
     #[command(hide = true)]
-    BenchCase(resound_bench::run::CaseArgs),
+    BenchCase(bench_cmd::CaseArgs),
 }
 
 /// `println!` panics when stdout is a closed pipe (`resound analyze x.wav | head -1`); like
@@ -113,8 +113,8 @@ fn main() -> ExitCode {
         Command::Stats(c) => stats_cmd::run(c),
         Command::Scrape(a) => scrape_cmd::run(a),
         Command::Grains(c) => grains_cmd::run(c),
-        Command::Bench(c) => resound_bench::run::run(c),
-        Command::BenchCase(a) => resound_bench::run::run_case(a),
+        Command::Bench(c) => bench_cmd::run(c),
+        Command::BenchCase(a) => resound_bench::run::run_case(a.into()),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -125,8 +125,44 @@ fn main() -> ExitCode {
             }) {
                 return ExitCode::SUCCESS;
             }
-            eprintln!("error: {e:#}");
+            match advice(&e) {
+                Some(a) => eprintln!("error: {e:#}; {a}"),
+                None => eprintln!("error: {e:#}"),
+            }
             ExitCode::from(2)
         }
     }
+}
+
+/// What to do about a library error, in this CLI's flags: the library names no flag, so the
+/// advice for each of its error variants lives here (Python says the same with its keywords).
+fn advice(e: &anyhow::Error) -> Option<String> {
+    const FLAGS: [(&str, &str); 6] = [
+        ("max_freq_hz", "--max-freq-hz"),
+        ("speed_m_s", "--velocity"),
+        ("duration_s", "--duration"),
+        ("sample_rate_hz", "--sample-rate"),
+        ("impactor_radius_m", "--impactor-radius"),
+        ("impactor_mass_kg", "--impactor-mass"),
+    ];
+    let root = e
+        .chain()
+        .find_map(|c| c.downcast_ref::<resound::Error>())?
+        .root();
+    Some(match root {
+        resound::Error::Exists(_) => "pass --force to replace it".into(),
+        resound::Error::Implausible(_) => "keep it anyway with --allow-implausible".into(),
+        resound::Error::Param { field, .. } => {
+            let (_, flag) = FLAGS.iter().find(|(f, _)| f == field)?;
+            format!("see {flag}")
+        }
+        resound::Error::NoLiveAudio => "rebuild with `cargo build --release --features live`, \
+            or render to a file"
+            .into(),
+        resound::Error::Device(_) => "see --sample-rate (synth) or --block (scene)".into(),
+        r if r.is_too_many_modes() => "if the file is not in metres pass --scale (0.001 for \
+            millimetres), else lower --max-freq-hz, ask for --modes N or raise --max-modes"
+            .into(),
+        _ => return None,
+    })
 }

@@ -1,12 +1,12 @@
 //! `resound modal` and `resound model`.
 
-use crate::util::{parse_vec3, print_json, spinner, stage_message, warn_all};
-use anyhow::{bail, Context, Result};
+use crate::util::{parse_vec3, print_json, warn_all, Bar};
+use anyhow::Result;
 use clap::Args;
 use resound::core::{Hit, Material, ModalModel};
-use resound::io::{model_file, mtx};
+use resound::io::model_file;
 use resound::modal::ModalParams;
-use resound::object::ModalReport;
+use resound::object::{solve_object, ModalReport, SolveJob, SolveOutcome};
 use std::path::PathBuf;
 
 /// Arguments of `resound modal`.
@@ -89,13 +89,8 @@ pub struct ModelInfoArgs {
     pub json: bool,
 }
 
-fn params(a: &ModalArgs) -> Result<ModalParams> {
-    if let Some(f) = a.max_freq_hz {
-        if !(f > 0.0 && f.is_finite() && f <= 1e6) {
-            bail!("--max-freq-hz {f} must be in (0, 1e6]");
-        }
-    }
-    Ok(ModalParams {
+fn params(a: &ModalArgs) -> ModalParams {
+    ModalParams {
         n_modes: a.modes,
         max_freq_hz: a.max_freq_hz,
         resolution: a.resolution,
@@ -105,7 +100,7 @@ fn params(a: &ModalArgs) -> Result<ModalParams> {
         threads: a.threads,
         max_modes: a.max_modes,
         ..Default::default()
-    })
+    }
 }
 
 fn print_modes(model: &ModalModel, hit: Option<&Hit>) {
@@ -138,80 +133,40 @@ pub fn run(a: ModalArgs) -> Result<()> {
         &[&a.mesh],
         &a.output.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
     )?;
-    let material = Material::parse(&a.material)?;
-    let hit = a.hit.as_deref().map(parse_vec3).transpose()?;
-    let p = params(&a)?;
-    let pb = spinner("modal");
-    pb.set_message("voxelizing and assembling");
-    let progress = |s| stage_message(&pb, s);
-    let solved = resound::object::solve_mesh_file(&a.mesh, a.scale, &material, &p, &progress);
-    pb.finish_and_clear();
-    let mut solved = solved?;
-    let transfer = if a.transfer {
-        let pb = spinner("transfer");
-        pb.set_message(format!(
-            "fitting the acoustic transfer of {} modes",
-            solved.model.n_modes()
-        ));
-        let t0 = std::time::Instant::now();
-        let params = resound::modal::TransferParams {
+    let job = SolveJob {
+        mesh: a.mesh.clone(),
+        scale: a.scale,
+        material: Material::parse(&a.material)?,
+        modal: params(&a),
+        transfer: a.transfer.then(|| resound::modal::TransferParams {
             max_order: a.transfer_order,
             max_sources: a.transfer_sources,
             ..Default::default()
-        };
-        let info = resound::radiation::add_transfer(&mut solved.model, &params);
-        pb.finish_and_clear();
-        let info = info?;
-        if info.poorly_fitted > 0 {
-            eprintln!(
-                "warning: {} modes' surface velocity is fitted with more than 90 % misfit \
-                 (worst {:.2}): their radiation is approximate (raise --transfer-sources, or refine the mesh)",
-                info.poorly_fitted, info.worst_residual
-            );
-        }
-        Some(resound::object::TransferRow {
-            info,
-            fit_s: t0.elapsed().as_secs_f64(),
-        })
-    } else {
-        None
+        }),
+        hit_m: a.hit.as_deref().map(parse_vec3).transpose()?,
+        export_matrices: a.export_matrices.clone(),
     };
-    let (model, info) = (&solved.model, &solved.info);
-    if let (Some(dir), Some(fem)) = (&a.export_matrices, &solved.fem) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let note = format!(
-            "resound {} {}: {} DOFs; DOF 3*node+c",
-            env!("CARGO_PKG_VERSION"),
-            fem.element,
-            fem.n_dofs()
-        );
-        mtx::write_symmetric(
-            &dir.join("K.mtx"),
-            fem.k.as_ref(),
-            &format!("stiffness K (N/m)\n{note}"),
-        )?;
-        mtx::write_symmetric(
-            &dir.join("M.mtx"),
-            fem.m.as_ref(),
-            &format!("mass M (kg)\n{note}"),
-        )?;
-    }
-    warn_all(&info.warnings);
-    if let Some(r) = info.discretize.as_ref() {
-        for l in r.repair.lines() {
-            eprintln!("repaired: {l}");
-        }
+    let pb = Bar::new("modal");
+    let solved = solve_object(&job, &pb.callback());
+    pb.finish_and_clear();
+    let SolveOutcome {
+        model,
+        report,
+        hit,
+        repairs,
+    } = solved?;
+    let model = &model;
+    warn_all(&report.warnings);
+    for l in repairs {
+        eprintln!("repaired: {l}");
     }
     if let Some(out) = &a.output {
         model_file::save(out, model)?;
     }
-    let hit = hit.map(|h| model.hit(h)).transpose()?;
     if a.json {
-        let mut report = ModalReport::new(model, Some(info), hit.as_ref());
-        report.transfer = transfer;
         return print_json(&report);
     }
-    if let Some(t) = &transfer {
+    if let Some(t) = &report.transfer {
         println!(
             "acoustic transfer: {} grid frequencies, {} surface points, up to {} unknowns, \
              worst misfit {:.3}, {:.1} MB, in {:.2} s",
@@ -223,12 +178,22 @@ pub fn run(a: ModalArgs) -> Result<()> {
             t.fit_s
         );
     }
-    let e = &info.eigen;
-    println!(
-        "{} elements ({}), {} DOFs, {} modes in {:.2} s (assemble {:.2} s, factor {:.2} s, Lanczos {:.2} s, Sturm {:.2} s); max residual {:.1e}",
-        info.elements, info.element, info.dofs, model.n_modes(), info.total_s, info.assemble_s,
-        e.factor_s, e.eigen_s, e.sturm_s, e.max_rel_residual
-    );
+    if let Some(e) = &report.solve {
+        println!(
+            "{} elements ({}), {} DOFs, {} modes in {:.2} s (assemble {:.2} s, factor {:.2} s, \
+             Lanczos {:.2} s, Sturm {:.2} s); max residual {:.1e}",
+            report.elements,
+            e.element,
+            report.dofs,
+            model.n_modes(),
+            e.solve_s,
+            e.assemble_s,
+            e.factor_s,
+            e.eigen_s,
+            e.sturm_s,
+            e.max_rel_residual
+        );
+    }
     print_modes(model, hit.as_ref());
     Ok(())
 }

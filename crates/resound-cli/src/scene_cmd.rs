@@ -117,7 +117,21 @@ pub fn run(a: SceneArgs) -> Result<()> {
         anyhow::bail!("--gain-db must be within ±120 dB, got {}", a.gain_db);
     }
     if a.live {
-        return crate::live::play_scene(&a.scene, &params, a.block as usize, a.gain_db);
+        let r = resound::live::play_scene(&a.scene, &params, a.block as usize, a.gain_db, &|p| {
+            eprintln!("{p}")
+        })?;
+        eprintln!(
+            "played {} live: {} callbacks, latency {} samples + the device's, {} late steps, \
+             {} dropped cues, {} voices stolen, degradation level {}",
+            a.scene.display(),
+            r.callbacks,
+            r.latency,
+            r.late_steps,
+            r.dropped_cues,
+            r.voices_stolen,
+            r.degradation
+        );
+        return Ok(());
     }
     if a.simulate_device {
         params.live = Some(resound::physics::live::LiveParams {
@@ -128,13 +142,14 @@ pub fn run(a: SceneArgs) -> Result<()> {
     let Some(output) = a.output.as_ref() else {
         anyhow::bail!("--output is needed");
     };
-    let spinner = crate::util::spinner("scene");
-    let stage = |m: &str| spinner.set_message(m.to_string());
-    let simulated = |f: f64| spinner.set_message(format!("{:.0}% simulated", 100.0 * f));
-    let r = render_scene(&a.scene, &params, &stage, &simulated);
-    spinner.finish_and_clear();
+    let pb = crate::util::Bar::new("scene");
+    let r = render_scene(&a.scene, &params, &pb.callback());
+    pb.finish_and_clear();
     let r = r?;
-    crate::util::warn_all(&r.summary.notes);
+    crate::util::warn_all(&r.summary.warnings);
+    for n in &r.summary.notes {
+        eprintln!("note: {n}");
+    }
     let refs: Vec<&[f32]> = r.channels.iter().map(|c| c.as_slice()).collect();
     write_wav_channels(output, &refs, r.sample_rate_hz, WavFormat::Pcm24)?;
     if let Some(p) = &a.events {
@@ -152,7 +167,7 @@ pub fn run(a: SceneArgs) -> Result<()> {
             extra: mono,
             info: Default::default(),
         };
-        crate::live::play(&strike, 1.0, r.sample_rate_hz, r.summary.duration_s)?;
+        resound::live::play(&strike, 1.0, r.sample_rate_hz, r.summary.duration_s)?;
     }
     let s = &r.summary;
     if let Some(l) = &s.live {

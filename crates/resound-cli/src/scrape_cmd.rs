@@ -1,16 +1,12 @@
 //! `resound scrape`: a probe scraped over a surface texture (Traer et al. 2019 §4).
 
-use crate::estimate_cmd::{load_model, snap};
-use crate::synth_cmd::{load_sound_material, FormatArg};
-use crate::util::parse_vec3;
+use crate::synth_cmd::FormatArg;
 use anyhow::{bail, Result};
 use clap::Args;
 use resound::core::DampedMode;
 use resound::io::{write_wav, WavFormat};
 use resound::scrape::{read_trajectory, render_scrape, Path1d, ScrapeJob, SurfaceSpec};
-use resound::synth::render::normalize;
 use resound::synth::scrape::ScrapeParams;
-use serde::Serialize;
 use std::path::PathBuf;
 
 /// Arguments of `scrape`.
@@ -87,21 +83,29 @@ pub struct ScrapeArgs {
 }
 
 fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
-    if let Some(p) = &a.stats {
-        let s = resound::files::load_stats(p)?;
-        return Ok(s.sample(a.seed)?);
+    let source = crate::synth_cmd::strike_source(
+        &a.modes,
+        &a.stats,
+        a.seed,
+        &a.material,
+        &a.mesh,
+        &a.hit,
+        &a.library,
+        crate::estimate_cmd::object_params(1.0, 200, "ceramic")?,
+    )
+    .map_err(|_| {
+        anyhow::anyhow!(
+            "give the scraped object: --stats, --modes, or --material with --mesh and --hit"
+        )
+    })?;
+    let pb = crate::util::Bar::new("modal");
+    let made = resound::strike::source_modes(&source, fs, &pb.callback());
+    pb.finish_and_clear();
+    let (modes, notes) = made?;
+    for n in notes {
+        eprintln!("note: {n}");
     }
-    if let Some(p) = &a.modes {
-        return Ok(resound::files::load_modes(p)?);
-    }
-    let (Some(spec), Some(mesh), Some(hit)) = (&a.material, &a.mesh, &a.hit) else {
-        bail!("give the scraped object: --stats, --modes, or --material with --mesh and --hit");
-    };
-    let material = load_sound_material(spec, &a.library)?;
-    let model = load_model(mesh, 1.0, 200, "ceramic")?;
-    let hit = snap(&model, parse_vec3(hit)?)?;
-    let gamma0 = model.gamma0();
-    Ok(material.modes(&model.eigenvalues, &hit.gains, gamma0, 0.5 * fs))
+    Ok(modes)
 }
 
 /// Runs `scrape`.
@@ -144,39 +148,28 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
         duration_s: a.duration,
         sample_rate_hz: a.sample_rate,
     };
-    let (mut out, path_m) = render_scrape(&job)?;
-    let modes = &job.modes;
-    let level = normalize(&mut out, resound::synth::render::CEILING)?;
-    let warnings: Vec<String> = level.quiet_warning().into_iter().collect();
-    crate::util::warn_all(&warnings);
-    if level.gain_db < 0.0 {
+    let r = render_scrape(&job)?;
+    crate::util::warn_all(&r.info.warnings);
+    if r.info.gain_db < 0.0 {
         eprintln!(
             "note: peak {:.2} of full scale; turned down by {:.1} dB (no clipping)",
-            level.peak_before, -level.gain_db
+            r.info.peak, -r.info.gain_db
         );
     }
-    let format = WavFormat::from(a.format);
-    write_wav(&a.output, &out, a.sample_rate, format)?;
+    write_wav(
+        &a.output,
+        &r.samples,
+        a.sample_rate,
+        WavFormat::from(a.format),
+    )?;
     if a.json {
-        #[derive(Serialize)]
-        struct Output {
-            output: String,
-            modes: usize,
-            path_m: f64,
-            peak: f32,
-            gain_db: f32,
-            warnings: Vec<String>,
-        }
-        crate::util::print_json(&Output {
-            output: a.output.display().to_string(),
-            modes: modes.iter().filter(|m| m.freq_hz < 0.5 * fs).count(),
-            path_m,
-            peak: level.peak_before,
-            gain_db: level.gain_db,
-            warnings,
-        })?;
+        crate::util::print_json(&r.info)?;
     } else {
-        eprintln!("wrote {} ({:.2} m scraped)", a.output.display(), path_m);
+        eprintln!(
+            "wrote {} ({:.2} m scraped)",
+            a.output.display(),
+            r.info.path_m
+        );
     }
     Ok(())
 }

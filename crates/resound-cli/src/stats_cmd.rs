@@ -49,14 +49,16 @@ pub fn run(c: StatsCmd) -> Result<()> {
         StatsCmd::Fit(a) => {
             let inputs: Vec<&std::path::Path> = a.recordings.iter().map(|p| p.as_path()).collect();
             crate::util::check_paths(&inputs, &[&a.output])?;
-            let each = |p: &std::path::Path, n: usize| eprintln!("{}: {n} modes", p.display());
+            let pb = crate::util::Bar::new("stats");
             let s = resound::files::fit_stats(
                 &a.recordings,
                 &a.material,
                 a.modes,
                 a.highpass_hz,
-                &each,
-            )?;
+                &pb.callback(),
+            );
+            pb.finish_and_clear();
+            let s = s?;
             resound::files::write_json(&a.output, &s)?;
             eprintln!(
                 "wrote {} ({} recordings, {} modes)",

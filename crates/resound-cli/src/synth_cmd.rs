@@ -1,12 +1,12 @@
 //! `resound synth`: render one strike of an object made of a material, or of analysed modes.
 
-use crate::estimate_cmd::{load_model, snap};
+use crate::estimate_cmd::object_params;
 use crate::util::parse_vec3;
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
-use resound::core::{Material, SoundMaterial};
+use resound::core::Material;
 use resound::io::{write_wav, WavFormat};
-use resound::strike::{render_strike, StrikeInfo, StrikeParams, Struck};
+use resound::strike::{render_strike_from, StrikeInfo, StrikeParams, StrikeSource};
 use resound::synth::excitation::ContactModel;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -130,19 +130,33 @@ pub struct SynthArgs {
     pub play: bool,
 }
 
-/// A material from a file (`*.json` or an existing path) or the library.
-pub fn load_sound_material(spec: &str, library: &Option<PathBuf>) -> Result<SoundMaterial> {
-    let path = Path::new(spec);
-    let lib = if path.is_file() || spec.to_ascii_lowercase().ends_with(".json") {
-        None
-    } else {
-        resound::material::read_library(library.as_deref())?
-    };
-    Ok(resound::material::resolve_material(
-        spec,
-        Path::new("."),
-        lib.as_ref(),
-    )?)
+/// What sounds: `--modes`, `--stats` (with `--seed`), or `--material` on `--mesh` at `--hit`.
+#[allow(clippy::too_many_arguments)]
+pub fn strike_source(
+    modes: &Option<PathBuf>,
+    stats: &Option<PathBuf>,
+    seed: u64,
+    material: &Option<String>,
+    mesh: &Option<PathBuf>,
+    hit: &Option<String>,
+    library: &Option<PathBuf>,
+    object_params: resound::object::ObjectParams,
+) -> Result<StrikeSource> {
+    Ok(match (modes, stats, material, mesh, hit) {
+        (Some(p), ..) => StrikeSource::Modes(p.clone()),
+        (None, Some(p), ..) => StrikeSource::Stats {
+            path: p.clone(),
+            seed,
+        },
+        (None, None, Some(material), Some(mesh), Some(hit)) => StrikeSource::Object {
+            material: material.clone(),
+            library: library.clone(),
+            object: mesh.clone(),
+            object_params,
+            hit_m: parse_vec3(hit)?,
+        },
+        _ => bail!("give --material, --mesh and --hit (or --modes, or --stats)"),
+    })
 }
 
 #[derive(Serialize)]
@@ -174,39 +188,23 @@ pub fn run(a: SynthArgs) -> Result<()> {
         sample_rate_hz: a.sample_rate,
         mic_m: a.mic.as_deref().map(parse_vec3).transpose()?,
     };
-    params.validate().map_err(strike_flag)?;
-    let mut strike = match (&a.modes, &a.stats) {
-        (Some(p), _) => {
-            let modes = resound::files::load_modes(p)?;
-            render_strike(Struck::Modes(&modes), &params)?
-        }
-        (None, Some(p)) => {
-            let stats = resound::files::load_stats(p)?;
-            render_strike(
-                Struck::Stats {
-                    stats: &stats,
-                    seed: a.seed,
-                },
-                &params,
-            )?
-        }
-        (None, None) => {
-            let (Some(spec), Some(mesh), Some(hit)) = (&a.material, &a.mesh, &a.hit) else {
-                bail!("give --material, --mesh and --hit (or --modes, or --stats)");
-            };
-            let material = load_sound_material(spec, &a.library)?;
-            let model = load_model(mesh, a.scale, a.mesh_modes, &a.reference_material)?;
-            let hit = snap(&model, parse_vec3(hit)?)?;
-            let same_object = material.was_estimated_on(&mesh.display().to_string(), hit.at.point);
-            let struck = Struck::Object {
-                material: &material,
-                model: &model,
-                hit: &hit,
-                same_object,
-            };
-            render_strike(struck, &params)?
-        }
-    };
+    let source = strike_source(
+        &a.modes,
+        &a.stats,
+        a.seed,
+        &a.material,
+        &a.mesh,
+        &a.hit,
+        &a.library,
+        object_params(a.scale, a.mesh_modes, &a.reference_material)?,
+    )?;
+    let pb = crate::util::Bar::new("synth");
+    let made = render_strike_from(&source, &params, &pb.callback());
+    pb.finish_and_clear();
+    let (mut strike, notes) = made?;
+    for n in notes {
+        eprintln!("note: {n}");
+    }
     resound::strike::level_for_file(&mut strike)?;
     let info = &strike.info;
     crate::util::warn_all(&info.warnings);
@@ -218,7 +216,7 @@ pub fn run(a: SynthArgs) -> Result<()> {
     }
     write_wav(&a.output, &strike.samples, a.sample_rate, a.format.into())?;
     if a.play {
-        crate::live::play(
+        resound::live::play(
             &strike,
             10f32.powf(strike.info.gain_db / 20.0),
             a.sample_rate,
@@ -238,22 +236,4 @@ pub fn run(a: SynthArgs) -> Result<()> {
         a.sample_rate
     );
     Ok(())
-}
-
-/// A strike parameter out of range, named by its flag.
-fn strike_flag(e: resound::Error) -> anyhow::Error {
-    const FLAGS: [(&str, &str); 5] = [
-        ("speed_m_s", "--velocity"),
-        ("duration_s", "--duration"),
-        ("sample_rate_hz", "--sample-rate"),
-        ("impactor_radius_m", "--impactor-radius"),
-        ("impactor_mass_kg", "--impactor-mass"),
-    ];
-    match &e {
-        resound::Error::Param { field, .. } => match FLAGS.iter().find(|(f, _)| f == field) {
-            Some((_, flag)) => anyhow::anyhow!("{flag}: {e}"),
-            None => e.into(),
-        },
-        _ => e.into(),
-    }
 }

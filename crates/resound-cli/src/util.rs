@@ -2,7 +2,6 @@
 
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use resound::modal::Stage;
 use serde::Serialize;
 use std::time::Duration;
 
@@ -32,24 +31,34 @@ pub fn parse_list(s: &str) -> Result<Vec<f64>> {
     Ok(v)
 }
 
-/// Progress on stderr: an indicatif spinner or bar on a terminal, and plain `label: message`
-/// lines (the first at once, then at most one every 2 s) in a log, where indicatif would draw nothing
-/// and a 30 s estimate would look hung.
-pub struct Progress {
+/// The library's progress reports ([`resound::Progress`]) on stderr: an indicatif spinner, or a
+/// bar while a stage reports its fraction, on a terminal; plain `label: stage …` lines (the
+/// first at once, then at most one every 2 s) in a log, where indicatif would draw nothing and
+/// a 30 s estimate would look hung. Warnings are left to the step's report, which each
+/// command prints once at the end (and `--json` includes).
+pub struct Bar {
     pb: ProgressBar,
     label: String,
+    /// Whether the bar style (not the spinner) is shown.
+    barred: std::sync::atomic::AtomicBool,
     /// `Some` in plain mode: when the last line was printed.
     plain: Option<std::sync::Mutex<std::time::Instant>>,
 }
 
-impl Progress {
-    fn new(pb: ProgressBar, label: &str) -> Self {
+impl Bar {
+    /// A spinner labelled `label` that turns into a bar while a stage reports its fraction.
+    pub fn new(label: &str) -> Self {
         use std::io::IsTerminal;
+        let pb = ProgressBar::new(1000);
+        pb.set_style(spinner_style());
+        pb.set_prefix(label.to_string());
+        pb.enable_steady_tick(Duration::from_millis(120));
         let plain = (!std::io::stderr().is_terminal())
             .then(|| std::sync::Mutex::new(std::time::Instant::now() - Duration::from_secs(10)));
         Self {
             pb,
             label: label.to_string(),
+            barred: std::sync::atomic::AtomicBool::new(false),
             plain,
         }
     }
@@ -65,33 +74,41 @@ impl Progress {
         }
     }
 
-    /// Sets the message. A message that starts with `warning:` (the library's build steps
-    /// say so) is printed as a line of its own instead, on a terminal and in a log alike: a
-    /// spinner's next message or the log's rate limit would otherwise hide it.
-    pub fn set_message(&self, msg: impl Into<String>) {
-        let msg = msg.into();
-        if msg.starts_with("warning:") {
-            self.pb.suspend(|| eprintln!("{msg}"));
+    /// Shows one report.
+    pub fn show(&self, p: &resound::Progress) {
+        use std::sync::atomic::Ordering;
+        let resound::Progress::Stage {
+            stage,
+            fraction,
+            label,
+            ..
+        } = p
+        else {
             return;
+        };
+        self.line(&p.to_string());
+        let barred = fraction.is_some();
+        if self.barred.swap(barred, Ordering::Relaxed) != barred {
+            self.pb
+                .set_style(if barred { bar_style() } else { spinner_style() });
         }
-        self.line(&msg);
-        self.pb.set_message(msg);
+        match fraction {
+            Some(f) => {
+                self.pb
+                    .set_prefix(format!("{} {}", self.label, stage.describe()));
+                self.pb.set_position((f * 1000.0).round() as u64);
+                self.pb.set_message(label.clone().unwrap_or_default());
+            }
+            None => {
+                self.pb.set_prefix(self.label.clone());
+                self.pb.set_message(p.to_string());
+            }
+        }
     }
 
-    /// Advances a bar by `n`.
-    pub fn inc(&self, n: u64) {
-        self.pb.inc(n);
-        if self.plain.is_some() {
-            let len = self.pb.length().unwrap_or(0);
-            self.line(&format!("{}/{len}", self.pb.position()));
-        }
-    }
-
-    /// Moves a bar of 1000 steps to `pos` under the stage name `prefix`.
-    pub fn set_stage(&self, prefix: &'static str, pos: u64) {
-        self.pb.set_prefix(prefix);
-        self.pb.set_position(pos);
-        self.line(&format!("{prefix} {:.0}%", pos as f64 / 10.0));
+    /// A callback for a library step.
+    pub fn callback(&self) -> impl Fn(resound::Progress) + Sync + '_ {
+        move |p| self.show(&p)
     }
 
     /// Removes the spinner or bar.
@@ -100,51 +117,14 @@ impl Progress {
     }
 }
 
-/// A spinner on stderr that follows solver stages.
-pub fn spinner(label: &str) -> Progress {
-    let pb = ProgressBar::new_spinner();
-    pb.set_style(
-        ProgressStyle::with_template("{spinner} {prefix} [{elapsed}] {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    );
-    pb.set_prefix(label.to_string());
-    pb.enable_steady_tick(Duration::from_millis(120));
-    Progress::new(pb, label)
+fn spinner_style() -> ProgressStyle {
+    ProgressStyle::with_template("{spinner} {prefix} [{elapsed}] {msg}")
+        .unwrap_or_else(|_| ProgressStyle::default_spinner())
 }
 
-/// A bar of `len` steps on stderr: `{pos}/{len} {unit}`.
-pub fn bar(label: &str, len: u64, unit: &str) -> Progress {
-    let pb = ProgressBar::new(len);
-    pb.set_style(
-        ProgressStyle::with_template(&format!(
-            "{{prefix}} [{{elapsed}}] {{bar:30}} {{pos}}/{{len}} {unit}"
-        ))
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    pb.set_prefix(label.to_string());
-    Progress::new(pb, label)
-}
-
-/// A bar of 1000 steps whose prefix names the stage.
-pub fn stages(label: &str) -> Progress {
-    let pb = ProgressBar::new(1000);
-    pb.set_style(
-        ProgressStyle::with_template("{prefix:>9} [{elapsed}] {bar:30} {percent}%")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    Progress::new(pb, label)
-}
-
-/// Maps solver stages onto a spinner message.
-pub fn stage_message(pb: &Progress, s: Stage) {
-    match s {
-        Stage::Factorizing => pb.set_message("factorizing K - sigma*M"),
-        Stage::Lanczos { applications } => {
-            pb.set_message(format!("Lanczos: {applications} operator applications"))
-        }
-        Stage::SturmCheck => pb.set_message("checking the mode count (Sturm)"),
-        _ => {}
-    }
+fn bar_style() -> ProgressStyle {
+    ProgressStyle::with_template("{prefix} [{elapsed}] {bar:30} {percent}% {msg}")
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
 }
 
 /// Prints `v` as pretty JSON on stdout.
@@ -154,7 +134,7 @@ pub fn print_json<T: Serialize>(v: &T) -> Result<()> {
 }
 
 /// Prints the library's warnings on stderr.
-pub fn warn_all(warnings: &[String]) {
+pub fn warn_all(warnings: &[resound::Warning]) {
     for w in warnings {
         eprintln!("warning: {w}");
     }

@@ -1632,8 +1632,10 @@ mod regression {
             d,
         )))
         .unwrap();
+        // A typed warning: its kind for programs, its words for people.
+        assert_eq!(out["warnings"][0]["kind"], "quiet", "{out}");
         assert!(
-            out["warnings"][0]
+            out["warnings"][0]["message"]
                 .as_str()
                 .unwrap()
                 .contains("below -90 dBFS"),
@@ -2322,12 +2324,13 @@ modes = 6
         assert!(!err.contains("body \"ball\": the acoustic"), "{err}");
     }
     for v in [&first, &second] {
-        let notes = v["notes"].as_array().unwrap();
+        let warnings = v["warnings"].as_array().unwrap();
         assert!(
-            notes.iter().any(|n| n
-                .as_str()
-                .unwrap()
-                .starts_with("body \"plate\": the acoustic")),
+            warnings.iter().any(|w| w["kind"] == "poor_transfer"
+                && w["message"]
+                    .as_str()
+                    .unwrap()
+                    .starts_with("body \"plate\": the acoustic")),
             "{v}"
         );
     }

@@ -20,6 +20,7 @@ pub mod geometry;
 pub mod limits;
 pub mod material;
 pub mod modal_model;
+pub mod progress;
 pub mod radiation;
 pub mod rayleigh;
 pub mod units;
@@ -27,6 +28,7 @@ pub mod units;
 pub use damped::DampedMode;
 pub use material::{Material, MaterialError};
 pub use modal_model::{Hit, ModalModel, ModalModelError};
+pub use progress::{Progress, ProgressFn, Stage, Warning, WarningKind};
 pub use radiation::AcousticTransfer;
 pub use rayleigh::{
     Damping, DampingModel, ModeDamping, Provenance, Residual, SoundMaterial, DEFAULT_SIGMA,

@@ -19,7 +19,7 @@ pub enum FemError {
     #[error(transparent)]
     Material(#[from] MaterialError),
     /// Voxelization left nothing (resolution too coarse for a thin object).
-    #[error("voxelization at resolution {resolution} ({dims:?} grid) found no inside voxel: the object is thinner than a voxel; raise --resolution")]
+    #[error("voxelization at resolution {resolution} ({dims:?} grid) found no inside voxel: the object is thinner than a voxel; raise the resolution")]
     NoVoxels {
         /// Voxels along the longest side.
         resolution: usize,

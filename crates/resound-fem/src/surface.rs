@@ -45,7 +45,7 @@ pub enum MeshError {
         n_vertices: usize,
     },
     /// The surface has holes.
-    #[error("mesh has {loops} boundary loop(s) ({edges} boundary edges); not closed. Close the holes (or raise --max-hole-edges so small holes are filled; the largest has {largest} edges)")]
+    #[error("mesh has {loops} boundary loop(s) ({edges} boundary edges); not closed. Close the holes (or let larger holes be filled (max_hole_edges); the largest has {largest} edges)")]
     NotClosed {
         /// Number of boundary loops.
         loops: usize,

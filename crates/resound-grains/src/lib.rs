@@ -34,6 +34,7 @@ pub mod sms;
 #[cfg(test)]
 mod testing;
 
+pub use resound_core::progress::{Progress, ProgressFn, Stage};
 use serde::{Deserialize, Serialize};
 
 /// Why grains cannot be made or used.
@@ -314,19 +315,8 @@ pub struct AnalyzeInfo {
     pub pairs: usize,
 }
 
-/// What the analysis is doing, for progress display.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Stage {
-    /// Splitting continuous recordings.
-    Split,
-    /// Cutting grains.
-    Grains,
-    /// Correlating.
-    Patterns,
-}
-
-/// Builds a dictionary: split, cut grains, correlate. `progress(stage, fraction)` is called now
-/// and then.
+/// Builds a dictionary: split, cut grains, correlate. `progress` hears the stage ([`Stage::Splitting`],
+/// [`Stage::Grains`], [`Stage::Patterns`]) and its fraction now and then.
 ///
 /// # Errors
 /// [`GrainError::Input`] for empty, silent or non-finite recordings; [`GrainError::Param`] for
@@ -335,7 +325,7 @@ pub fn analyze(
     recordings: &[Recording],
     sample_rate_hz: f64,
     params: &AnalyzeParams,
-    progress: &(dyn Fn(Stage, f64) + Sync),
+    progress: ProgressFn<'_>,
 ) -> Result<(Dictionary, AnalyzeInfo), GrainError> {
     if !resound_core::limits::sample_rate_ok(sample_rate_hz) {
         return Err(GrainError::Param(
@@ -385,7 +375,10 @@ pub fn analyze(
         } else {
             parts.push((i, Part::Impulsive, r.samples.clone()));
         }
-        progress(Stage::Split, (i + 1) as f64 / recordings.len() as f64);
+        progress(Progress::fraction(
+            Stage::Splitting,
+            (i + 1) as f64 / recordings.len() as f64,
+        ));
     }
     info.sms_s = t.elapsed().as_secs_f64();
     // 2. Grains.
@@ -416,7 +409,10 @@ pub fn analyze(
             fade_out: g.fade_out as u32,
             onset: g.onset,
         }));
-        progress(Stage::Grains, (k + 1) as f64 / parts.len() as f64);
+        progress(Progress::fraction(
+            Stage::Grains,
+            (k + 1) as f64 / parts.len() as f64,
+        ));
     }
     info.grains_s = t.elapsed().as_secs_f64();
     // 3. Patterns.
@@ -430,7 +426,7 @@ pub fn analyze(
         })
         .collect();
     let (peaks, pairs) = pattern::patterns(&signals, &grains, &params.pattern, &|f| {
-        progress(Stage::Patterns, f)
+        progress(Progress::fraction(Stage::Patterns, f))
     });
     info.pairs = pairs;
     info.patterns_s = t.elapsed().as_secs_f64();

@@ -110,7 +110,7 @@ mod tests {
             contact: Contact::Impact,
             samples: x.clone(),
         };
-        let (d, _) = analyze(&[rec], fs, &Default::default(), &|_, _| {}).expect("analysis");
+        let (d, _) = analyze(&[rec], fs, &Default::default(), &|_| {}).expect("analysis");
         let p = prune(&d, 0.9);
         p.validate().expect("valid");
         assert!(

@@ -48,7 +48,7 @@ fn knock_sequence() -> (Vec<f32>, Vec<usize>, Vec<usize>) {
 }
 
 fn dictionary_of(recordings: Vec<Recording>) -> Dictionary {
-    analyze(&recordings, FS, &AnalyzeParams::default(), &|_, _| {})
+    analyze(&recordings, FS, &AnalyzeParams::default(), &|_| {})
         .expect("analysis")
         .0
 }

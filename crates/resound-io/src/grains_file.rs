@@ -230,7 +230,7 @@ mod tests {
             }],
             44_100.0,
             &Default::default(),
-            &|_, _| {},
+            &|_| {},
         )
         .expect("analysis")
         .0

@@ -69,7 +69,7 @@ pub fn load_mesh(path: &Path, scale: f64) -> Result<LoadedMesh> {
         return Err(parse_err(
             path,
             format!(
-                "vertex {} at {p:?} m (after --scale {scale}) lies beyond ±{MAX_COORDINATE_M:e} m: not a \
+                "vertex {} at {p:?} m (after scaling by {scale}) lies beyond ±{MAX_COORDINATE_M:e} m: not a \
                  credible object coordinate",
                 i + 1
             ),

@@ -21,6 +21,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, SparseColMatRef};
 use faer::{Conj, Par, Side};
+use resound_core::progress::{Progress, ProgressFn, Stage};
 use resound_core::units;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -78,21 +79,6 @@ pub enum ModalError {
     /// An internal faer failure (allocation, symbolic analysis).
     #[error("sparse factorization failed: {0}")]
     Factorization(String),
-}
-
-/// Progress stages reported to the caller.
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[non_exhaustive]
-pub enum Stage {
-    /// Symbolic + numeric factorization started.
-    Factorizing,
-    /// Lanczos running; `applications` operator applications so far.
-    Lanczos {
-        /// Operator applications so far.
-        applications: usize,
-    },
-    /// Sturm count factorization.
-    SturmCheck,
 }
 
 /// Which Krylov method runs on the shift-inverted operator.
@@ -235,7 +221,7 @@ struct ShiftInvert<'a> {
     fwd: Vec<usize>,
     m: SparseColMatRef<'a, usize, f64>,
     count: AtomicUsize,
-    progress: &'a (dyn Fn(Stage) + Sync),
+    progress: ProgressFn<'a>,
 }
 
 impl std::fmt::Debug for ShiftInvert<'_> {
@@ -325,7 +311,7 @@ impl ShiftInvert<'_> {
         }
         split(&mut w, true);
         let a = self.count.fetch_add(x.ncols(), Ordering::Relaxed) + x.ncols();
-        (self.progress)(Stage::Lanczos { applications: a });
+        (self.progress)(Progress::count(Stage::Lanczos, a as u64));
         (w, lt)
     }
 
@@ -410,7 +396,7 @@ impl LinOp<f64> for ShiftInvert<'_> {
             .l_solve_with_conj(Conj::No, out.rb_mut(), par, stack);
         let a = self.count.fetch_add(1, Ordering::Relaxed) + 1;
         if a.is_multiple_of(8) {
-            (self.progress)(Stage::Lanczos { applications: a });
+            (self.progress)(Progress::count(Stage::Lanczos, a as u64));
         }
     }
     fn conj_apply(
@@ -609,7 +595,7 @@ pub fn solve_generalized(
     k: SparseColMatRef<'_, usize, f64>,
     m: SparseColMatRef<'_, usize, f64>,
     params: &EigenParams,
-    progress: &(dyn Fn(Stage) + Sync),
+    progress: ProgressFn<'_>,
 ) -> Result<(Vec<f64>, Mat<f64>, EigenInfo), ModalError> {
     let n = k.nrows();
     if n == 0 || params.n_eigen == 0 {
@@ -626,7 +612,7 @@ pub fn solve_generalized(
         shift: sigma,
         ..Default::default()
     };
-    progress(Stage::Factorizing);
+    progress(Progress::begin(Stage::Factorizing));
     let t0 = Instant::now();
     let a = shifted(k, m, sigma);
     let symbolic = symbolic_supernodal(a.as_ref(), params.dof_order.as_deref())?;
@@ -669,7 +655,7 @@ pub fn solve_generalized(
     // Krylov run is sized to the count instead of doubling towards it.
     let counted = match params.until_lambda {
         Some(lc) => {
-            progress(Stage::SturmCheck);
+            progress(Progress::begin(Stage::SturmCheck));
             let t2 = Instant::now();
             let c = sturm_count(k, m, lc, &symbolic, par)?;
             info.sturm_s = t2.elapsed().as_secs_f64();
@@ -887,7 +873,7 @@ pub fn solve_generalized(
         let count = match (counted, params.until_lambda) {
             (Some(c), Some(l)) if l == lc => c,
             _ => {
-                progress(Stage::SturmCheck);
+                progress(Progress::begin(Stage::SturmCheck));
                 let t2 = Instant::now();
                 let c = sturm_count(k, m, lc, &symbolic, par)?;
                 info.sturm_s += t2.elapsed().as_secs_f64();

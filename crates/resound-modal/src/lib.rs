@@ -22,7 +22,8 @@ pub mod eigen;
 pub mod model;
 pub mod radiation;
 
-pub use eigen::{solve_generalized, EigenInfo, EigenMethod, EigenParams, ModalError, Stage};
+pub use eigen::{solve_generalized, EigenInfo, EigenMethod, EigenParams, ModalError};
 pub use model::{Geometry, ModalBuilder, ModalParams, ModalSolution, ModalSolveInfo, ModelError};
 pub use radiation::{fit_transfer, model_transfer, TransferError, TransferInfo, TransferParams};
+pub use resound_core::progress::{Progress, Stage};
 pub use resound_core::ModalModel;

@@ -1,7 +1,8 @@
 //! From a mesh and a material to a [`ModalModel`].
 
-use crate::eigen::{solve_generalized, EigenInfo, EigenParams, ModalError, Stage};
+use crate::eigen::{solve_generalized, EigenInfo, EigenParams, ModalError};
 use faer::Par;
+use resound_core::progress::{ProgressFn, Warning, WarningKind};
 use resound_core::{units, Material, ModalModel};
 use resound_fem::discretize::{
     discretize_surface, discretize_tets, DiscretizeReport, FemError, VoxelParams,
@@ -92,7 +93,7 @@ pub struct ModalSolveInfo {
     /// Largest |frequency| among them (Hz): ≈ 0 for a free object.
     pub rigid_max_hz: f64,
     /// Things the user should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
 }
 
 /// What a modal model is computed from.
@@ -127,7 +128,7 @@ pub struct ModalBuilder<'a> {
     geometry: Geometry<'a>,
     material: &'a Material,
     params: ModalParams,
-    progress: &'a (dyn Fn(Stage) + Sync),
+    progress: ProgressFn<'a>,
 }
 
 /// A solved modal analysis.
@@ -148,7 +149,7 @@ impl<'a> ModalBuilder<'a> {
             geometry,
             material,
             params: ModalParams::default(),
-            progress: &|_| {},
+            progress: &resound_core::progress::ignore,
         }
     }
     /// From a closed surface mesh.
@@ -185,7 +186,7 @@ impl<'a> ModalBuilder<'a> {
         self
     }
     /// Solver stages are reported here.
-    pub fn progress(mut self, progress: &'a (dyn Fn(Stage) + Sync)) -> Self {
+    pub fn progress(mut self, progress: ProgressFn<'a>) -> Self {
         self.progress = progress;
         self
     }
@@ -225,7 +226,7 @@ fn solve_surface(
     mesh: &SurfaceMesh,
     material: &Material,
     params: &ModalParams,
-    progress: &(dyn Fn(Stage) + Sync),
+    progress: ProgressFn<'_>,
 ) -> Result<(ModalModel, ModalSolveInfo, FemModel), ModelError> {
     check_params(params)?;
     let t0 = Instant::now();
@@ -240,9 +241,12 @@ fn solve_surface(
     let assemble_s = t0.elapsed().as_secs_f64();
     let (model, mut info) = solve_fem(&fem, material, params, 1, progress)?;
     if report.dropped_voxels > 0 {
-        info.warnings.push(format!(
-            "{} voxels not face-connected to the main body were dropped (thin parts; raise --resolution)",
-            report.dropped_voxels
+        info.warnings.push(Warning::new(
+            WarningKind::Model,
+            format!(
+                "{} voxels not face-connected to the main body were dropped (thin parts; raise the voxel resolution)",
+                report.dropped_voxels
+            ),
         ));
     }
     info.discretize = Some(report);
@@ -255,7 +259,7 @@ fn solve_tets(
     tets: &TetMesh,
     material: &Material,
     params: &ModalParams,
-    progress: &(dyn Fn(Stage) + Sync),
+    progress: ProgressFn<'_>,
 ) -> Result<(ModalModel, ModalSolveInfo, FemModel), ModelError> {
     check_params(params)?;
     let t0 = Instant::now();
@@ -263,11 +267,18 @@ fn solve_tets(
     let components = tet_components(tets);
     let assemble_s = t0.elapsed().as_secs_f64();
     let (model, mut info) = solve_fem(&fem, material, params, components, progress)?;
-    info.warnings.extend(fem.notes.iter().cloned());
+    info.warnings.extend(
+        fem.notes
+            .iter()
+            .map(|n| Warning::new(WarningKind::Model, n.clone())),
+    );
     if components > 1 {
-        info.warnings.push(format!(
-            "the tet mesh has {components} separate parts; {} rigid modes dropped",
-            6 * components
+        info.warnings.push(Warning::new(
+            WarningKind::Model,
+            format!(
+                "the tet mesh has {components} separate parts; {} rigid modes dropped",
+                6 * components
+            ),
         ));
     }
     info.assemble_s = assemble_s;
@@ -310,11 +321,13 @@ fn check_params(p: &ModalParams) -> Result<(), ModelError> {
         }
     }
     if p.n_modes == Some(0) {
-        return Err(ModelError::Params("--modes must be at least 1".into()));
+        return Err(ModelError::Params(
+            "the mode count must be at least 1".into(),
+        ));
     }
     if let Some(n) = p.n_modes.filter(|&n| n > p.max_modes) {
         return Err(ModelError::Params(format!(
-            "--modes {n} is more than the supported {} (the Krylov space grows as 3x the modes)",
+            "{n} modes is more than the supported {} (the Krylov space grows as 3x the modes)",
             p.max_modes
         )));
     }
@@ -332,7 +345,7 @@ fn solve_fem(
     material: &Material,
     params: &ModalParams,
     components: usize,
-    progress: &(dyn Fn(Stage) + Sync),
+    progress: ProgressFn<'_>,
 ) -> Result<(ModalModel, ModalSolveInfo), ModelError> {
     let t0 = Instant::now();
     let rigid = 6 * components.max(1);
@@ -398,16 +411,22 @@ fn solve_fem(
     if let Some(&first) = keep.first() {
         let f1 = units::lambda_to_freq_hz(lambdas[first]);
         if info.rigid_max_hz > 1e-2 * f1 {
-            info.warnings.push(format!(
-                "rigid-body modes are not near zero ({:.3} Hz vs first elastic {f1:.1} Hz): the model may contain a mechanism (parts joined by an edge or a vertex)",
-                info.rigid_max_hz
+            info.warnings.push(Warning::new(
+                WarningKind::Model,
+                format!(
+                    "rigid-body modes are not near zero ({:.3} Hz vs first elastic {f1:.1} Hz): the model may contain a mechanism (parts joined by an edge or a vertex)",
+                    info.rigid_max_hz
+                ),
             ));
         }
     }
     if einfo.capped {
-        info.warnings.push(format!(
-            "stopped at --max-modes {} below the cutoff",
-            params.max_modes
+        info.warnings.push(Warning::new(
+            WarningKind::Model,
+            format!(
+                "stopped at the maximum of {} modes below the cutoff",
+                params.max_modes
+            ),
         ));
     }
     let nv = fem.surface.vertices.len();

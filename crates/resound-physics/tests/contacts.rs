@@ -325,7 +325,7 @@ fn grains() -> resound_physics::GrainSound {
             samples: slide,
         },
     ];
-    let (dictionary, _) = analyze(&recs, fs, &Default::default(), &|_, _| {}).unwrap();
+    let (dictionary, _) = analyze(&recs, fs, &Default::default(), &|_| {}).unwrap();
     resound_physics::GrainSound {
         dictionary: std::sync::Arc::new(dictionary),
         params: Default::default(),

@@ -93,7 +93,7 @@ pub(crate) fn grains_analyze<'py>(
     };
     let params = grain_params(min_db, peaks, min_corr);
     let made = py
-        .detach(|| analyze_to_file(&recs, fs, &params, prune, &output, &|_, _| {}))
+        .detach(|| analyze_to_file(&recs, fs, &params, prune, &output, &|_| {}))
         .map_err(err)?;
     report(py, &made)
 }

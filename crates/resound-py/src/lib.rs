@@ -38,10 +38,22 @@ pyo3::create_exception!(
 /// names its flag.
 fn err(e: impl Into<anyhow::Error>) -> PyErr {
     let e = e.into();
-    match e.downcast_ref::<resound::Error>() {
+    // The library names no setting; the advice for each of its error variants is given here
+    // in keywords, as the CLI gives it in flags.
+    match e.downcast_ref::<resound::Error>().map(resound::Error::root) {
         Some(resound::Error::Param { field, .. }) => {
             ResoundError::new_err(format!("{field}: {e:#}"))
         }
+        Some(resound::Error::Exists(_)) => {
+            ResoundError::new_err(format!("{e:#}; pass replace=True to replace it"))
+        }
+        Some(resound::Error::Implausible(_)) => {
+            ResoundError::new_err(format!("{e:#}; keep it anyway with allow_implausible=True"))
+        }
+        Some(r) if r.is_too_many_modes() => ResoundError::new_err(format!(
+            "{e:#}; if the file is not in metres pass scale=0.001 (millimetres), else ask \
+             for fewer modes"
+        )),
         _ => ResoundError::new_err(format!("{e:#}")),
     }
 }
@@ -173,15 +185,11 @@ fn estimate_material<'py>(
     mic: Option<[f64; 3]>,
 ) -> PyResult<(PyMaterial, Bound<'py, PyAny>)> {
     let ap = analyze_params(strike, 64, 60.0)?;
-    let h = model.inner.hit(hit).map_err(err)?;
     let params = resound::material::EstimateMaterialParams {
         name: name.to_string(),
         residual,
         allow_implausible,
         mic_m: mic,
-        recording_name: path
-            .as_ref()
-            .map_or("<array>".into(), |p| p.display().to_string()),
         object_name: model.source.clone(),
         ..Default::default()
     };
@@ -191,24 +199,26 @@ fn estimate_material<'py>(
     };
     let m = &model.inner;
     let out = py.detach(|| -> anyhow::Result<_> {
-        let analysis = match (&path, slice, sample_rate) {
+        let take = match (&path, slice, sample_rate) {
             (Some(p), None, None) => {
                 let rec = resound::recording::RecordingParams {
                     channel,
                     resample_hz: None,
                 };
-                resound::recording::analyze_file(p, &rec, &ap)?.1
+                resound::recording::AnalysedTake {
+                    label: p.display().to_string(),
+                    analysis: resound::recording::analyze_file(p, &rec, &ap)?.1,
+                }
             }
-            (None, Some(x), Some(fs)) => resound::recording::analyze_samples(x, fs, &ap)?,
+            (None, Some(x), Some(fs)) => resound::recording::AnalysedTake {
+                label: "<array>".into(),
+                analysis: resound::recording::analyze_samples(x, fs, &ap)?,
+            },
             _ => anyhow::bail!("give a path, or samples with sample_rate"),
         };
-        Ok(resound::material::estimate_material(
-            &analysis,
-            m,
-            &h,
-            &params,
-            &|| {},
-        )?)
+        let o =
+            resound::material::estimate_on_model(vec![take], (**m).clone(), hit, &params, &|_| {})?;
+        Ok((o.material, o.info))
     });
     let (mat, info) = out.map_err(err)?;
     Ok((PyMaterial::new_from(mat, "estimated"), report(py, &info)?))
@@ -311,7 +321,7 @@ fn render_scene<'py>(
         ..Default::default()
     };
     let r = py
-        .detach(|| resound::scene::render_scene(&path, &params, &|_| {}, &|_| {}))
+        .detach(|| resound::scene::render_scene(&path, &params, &|_| {}))
         .map_err(err)?;
     scene_out(py, r)
 }
@@ -386,8 +396,8 @@ fn render_scrape<'py>(
         duration_s,
         sample_rate_hz: sample_rate,
     };
-    let (x, path_m) = py.detach(|| render_scrape(&job)).map_err(err)?;
-    Ok((x.into_pyarray(py), path_m))
+    let r = py.detach(|| render_scrape(&job)).map_err(err)?;
+    Ok((r.samples.into_pyarray(py), r.info.path_m))
 }
 
 /// Renders a scene given as a dict of the scene file's fields (relative paths from
@@ -410,9 +420,7 @@ fn render_scene_dict<'py>(
         ..Default::default()
     };
     let r = py
-        .detach(|| {
-            resound::scene::render_scene_value(scene, "scene", &base_dir, &params, &|_| {}, &|_| {})
-        })
+        .detach(|| resound::scene::render_scene_value(scene, "scene", &base_dir, &params, &|_| {}))
         .map_err(err)?;
     scene_out(py, r)
 }

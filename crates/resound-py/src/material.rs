@@ -182,12 +182,5 @@ pub(crate) fn save_material(
     library: Option<PathBuf>,
     replace: bool,
 ) -> PyResult<()> {
-    resound::material::store_material(library.as_deref(), &material.inner, replace).map_err(|e| {
-        match e {
-            resound::Error::Exists(_) => {
-                ResoundError::new_err(format!("{e}; pass replace=True to replace it"))
-            }
-            e => err(e),
-        }
-    })
+    resound::material::store_material(library.as_deref(), &material.inner, replace).map_err(err)
 }

@@ -88,7 +88,7 @@ impl ModeStatistics {
     ) -> PyResult<Self> {
         let s = py
             .detach(|| {
-                resound::files::fit_stats(&recordings, material, modes, highpass_hz, &|_, _| {})
+                resound::files::fit_stats(&recordings, material, modes, highpass_hz, &|_| {})
             })
             .map_err(err)?;
         Ok(Self {

@@ -370,9 +370,11 @@ def test_a_radiating_scene_names_bodies_whose_radiation_is_uncertain():
                       {"name": "ball", "shape": {"sphere": 0.02}, "material": "preset:steel",
                        "density": 7850, "position": [0.0, 0.2, 0.0], "modes": 6}]}
     r = resound.render_scene(scene)
-    notes = r.summary["notes"]
-    assert any(n.startswith('body "plate": the acoustic transfer') for n in notes), notes
-    assert not any('"ball"' in n for n in notes), notes
+    warnings = r.summary["warnings"]
+    assert any(w["kind"] == "poor_transfer"
+               and w["message"].startswith('body "plate": the acoustic transfer')
+               for w in warnings), warnings
+    assert not any('"ball"' in w["message"] for w in warnings), warnings
     assert np.all(np.isfinite(r.audio)) and np.max(np.abs(r.audio)) > 0
 
 

@@ -5,6 +5,7 @@
 use crate::extract::{extract_modes, ExtractParams};
 use crate::onset::scan;
 use crate::refine::{refine_modes, RefineInfo, RefineParams, Seed};
+use resound_core::progress::{Warning, WarningKind};
 use resound_core::DampedMode;
 use thiserror::Error;
 
@@ -81,8 +82,8 @@ pub struct Analysis {
     pub segment: Vec<f64>,
     /// Samples in flat runs at the peak (clipping).
     pub clipped_samples: usize,
-    /// Human-readable warnings (clipping, several strikes).
-    pub warnings: Vec<String>,
+    /// Warnings (clipping, several strikes, undetermined damping).
+    pub warnings: Vec<Warning>,
     /// Refinement statistics.
     pub refine: RefineInfo,
     /// Seconds spent in stage 1 (spectrogram extraction).
@@ -121,7 +122,7 @@ pub enum AnalyzeError {
         onset_s: f64,
     },
     /// Sample rate outside 8–192 kHz.
-    #[error("sample rate {0} Hz is outside the supported 8000–192000 Hz; resample it first (`--resample-hz 48000`)")]
+    #[error("sample rate {0} Hz is outside the supported 8000–192000 Hz; resample it first (to 48000 Hz, say)")]
     SampleRate(f64),
     /// `strike` beyond the strikes found.
     #[error("strike {} requested (counting from 1) but only {found} strike(s) found", requested + 1)]
@@ -262,10 +263,10 @@ pub fn analyze(
     let sc = scan(&causal, sample_rate_hz);
     let mut warnings = Vec::new();
     if sc.clipped_samples > 0 {
-        warnings.push(format!(
+        warnings.push(Warning::new(WarningKind::Input, format!(
             "the audio looks clipped: {} samples sit in flat runs at the peak; amplitudes of strong modes will be low",
             sc.clipped_samples
-        ));
+        )));
     }
     if sc.onsets.is_empty() {
         return Err(AnalyzeError::Silent {
@@ -277,14 +278,17 @@ pub fn analyze(
         None => strongest_clean(&x, &sc.onsets, sample_rate_hz),
     };
     if sc.onsets.len() > 1 {
-        warnings.push(format!(
-            "the audio holds {} strikes (at {}); analysing {strike_reason}",
-            sc.onsets.len(),
-            sc.onsets
-                .iter()
-                .map(|&o| format!("{:.3} s", o as f64 / sample_rate_hz))
-                .collect::<Vec<_>>()
-                .join(", "),
+        warnings.push(Warning::new(
+            WarningKind::Input,
+            format!(
+                "the audio holds {} strikes (at {}); analysing {strike_reason}",
+                sc.onsets.len(),
+                sc.onsets
+                    .iter()
+                    .map(|&o| format!("{:.3} s", o as f64 / sample_rate_hz))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            ),
         ));
     }
     let Some(&onset) = sc.onsets.get(strike) else {
@@ -430,12 +434,12 @@ pub fn analyze(
         .map(|m| format!("{:.0} Hz", m.freq_hz))
         .collect();
     if !undetermined.is_empty() {
-        warnings.push(format!(
+        warnings.push(Warning::new(WarningKind::Implausible, format!(
             "{} mode(s) ({}) lose less than 10 % of their amplitude over the {:.2} s analysed: their damping is not determined (they ring past the end, or the excitation goes on, as in rolling)",
             undetermined.len(),
             undetermined.join(", "),
             window_s
-        ));
+        )));
     }
     Ok(Analysis {
         sample_rate_hz,
@@ -562,7 +566,7 @@ fn strongest_clean(x: &[f64], onsets: &[usize], sample_rate_hz: f64) -> (usize, 
     (
         k,
         format!(
-            "strike {} (the loudest of {} clean strikes, peak {:.1} dBFS; `--strike K` picks another)",
+            "strike {} (the loudest of {} clean strikes, peak {:.1} dBFS; another can be chosen by its number)",
             k + 1,
             clean_ones.len(),
             20.0 * peak_of(k).max(1e-12).log10()

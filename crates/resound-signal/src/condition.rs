@@ -185,7 +185,7 @@ fn choose_highpass(
         return (
             HighpassChoice::None,
             format!(
-                "none: the tail still rings ({:.0} dB below the peak), so rumble cannot be told from the strike's low modes; give --highpass-hz",
+                "none: the tail still rings ({:.0} dB below the peak), so rumble cannot be told from the strike's low modes; give a high-pass frequency",
                 20.0 * (peak / rms.max(1e-300)).log10()
             ),
         );

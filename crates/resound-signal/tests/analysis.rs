@@ -192,7 +192,10 @@ fn several_strikes_warn_and_can_be_chosen() {
     let first = analyze(&x, FS, &AnalyzeParams::default()).unwrap();
     assert_eq!(first.strikes_s.len(), 2, "{:?}", first.strikes_s);
     assert!(
-        first.warnings.iter().any(|w| w.contains("2 strikes")),
+        first
+            .warnings
+            .iter()
+            .any(|w| w.kind == resound_core::WarningKind::Input && w.message.contains("2 strikes")),
         "{:?}",
         first.warnings
     );
@@ -240,7 +243,9 @@ fn clipped_input_warns() {
     let res = analyze(&x, FS, &AnalyzeParams::default()).unwrap();
     assert!(res.clipped_samples > 100);
     assert!(
-        res.warnings.iter().any(|w| w.contains("clipped")),
+        res.warnings
+            .iter()
+            .any(|w| w.kind == resound_core::WarningKind::Input && w.message.contains("clipped")),
         "{:?}",
         res.warnings
     );

@@ -2,6 +2,7 @@
 
 use crate::bank::{BankMode, ModalBank};
 use crate::SynthError;
+use resound_core::progress::{Warning, WarningKind};
 use resound_core::DampedMode;
 
 /// The impulse of the reference impact a material's σ is calibrated to: a 5 mm steel ball
@@ -73,14 +74,20 @@ impl LevelReport {
 
     /// A warning when the render, as it came out of the physics (before any gain), peaks below
     /// [`QUIET_DBFS`]: a material or scale in the wrong units, or an impact too soft to hear.
-    pub fn quiet_warning(&self) -> Option<String> {
+    pub fn quiet_warning(&self) -> Option<Warning> {
         if self.peak_before == 0.0 {
-            Some("the render is silent (every sample is 0)".to_string())
+            Some(Warning::new(
+                WarningKind::Quiet,
+                "the render is silent (every sample is 0)",
+            ))
         } else if self.peak_dbfs() < QUIET_DBFS {
-            Some(format!(
-                "the render peaks at {:.0} dBFS, below {QUIET_DBFS:.0} dBFS: inaudible, and \
+            Some(Warning::new(
+                WarningKind::Quiet,
+                format!(
+                    "the render peaks at {:.0} dBFS, below {QUIET_DBFS:.0} dBFS: inaudible, and \
                  zeros in 16-bit PCM (a material in the wrong units, e.g. γ or σ in mesh units?)",
-                self.peak_dbfs()
+                    self.peak_dbfs()
+                ),
             ))
         } else {
             None

@@ -24,6 +24,7 @@
 use crate::error::{invalid, Error, Result};
 use crate::model_cache::{KeyBuilder, ModelCache};
 use crate::strike::{render_strike, StrikeParams, Struck};
+use resound_core::progress::{Progress, ProgressFn, Stage, Warning, WarningKind};
 use resound_core::{Material, ModalModel};
 use resound_io::library::Library;
 use serde::{Deserialize, Serialize};
@@ -161,7 +162,7 @@ pub struct ManifestEntry {
     pub modes: usize,
     /// What is doubtful about this strike (e.g. below audibility).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub warnings: Vec<String>,
+    pub warnings: Vec<resound_core::Warning>,
 }
 
 /// A job that failed, by line.
@@ -189,24 +190,13 @@ pub struct BatchInfo {
     /// Failed jobs.
     pub failures: Vec<JobFailure>,
     /// Warnings about rendered strikes (`line N: …`), also in their manifest entries.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<resound_core::Warning>,
     /// The shard's manifest.
     pub manifest: PathBuf,
     /// Seconds to the first file written in this run.
     pub first_output_s: Option<f64>,
     /// Wall time, s.
     pub elapsed_s: f64,
-}
-
-/// Progress of a batch run.
-#[derive(Clone, Copy, Debug)]
-pub struct BatchProgress {
-    /// Jobs of the shard handled so far.
-    pub done: usize,
-    /// Jobs of the shard.
-    pub total: usize,
-    /// The line just handled.
-    pub line: usize,
 }
 
 /// Parses `i/N` (index from 0).
@@ -348,7 +338,7 @@ fn read_manifest(path: &Path) -> Result<Vec<ManifestEntry>> {
 pub fn run_batch(
     jobs_path: &Path,
     params: &BatchParams,
-    progress: &dyn Fn(BatchProgress),
+    progress: ProgressFn<'_>,
 ) -> Result<BatchInfo> {
     let t0 = std::time::Instant::now();
     let (shard, shards) = params.shard;
@@ -434,10 +424,12 @@ pub fn run_batch(
                 message: e.to_string(),
             });
         }
-        progress(BatchProgress {
-            done: n + 1,
-            total,
-            line,
+        // `count` is the line just handled; `fraction` the shard's jobs handled.
+        progress(Progress::Stage {
+            stage: Stage::Batch,
+            fraction: Some((n + 1) as f64 / total.max(1) as f64),
+            count: Some(line as u64),
+            label: None,
         });
     }
     info.models_solved = models.solved();
@@ -555,9 +547,13 @@ fn run_job(
                     *d = s * g;
                 }
                 if delay >= n {
-                    warnings.push(format!(
-                        "the listener is {r:.1} m away: the sound arrives after the {} s rendered",
-                        job.duration_s
+                    warnings.push(Warning::new(
+                        WarningKind::Geometry,
+                        format!(
+                            "the listener is {r:.1} m away: the sound arrives after the {} s \
+                             rendered",
+                            job.duration_s
+                        ),
                     ));
                 }
                 strike.samples = moved;
@@ -609,8 +605,10 @@ fn run_job(
             }
             info.first_output_s
                 .get_or_insert(t0.elapsed().as_secs_f64());
-            info.warnings
-                .extend(warnings.iter().map(|w| format!("line {line}: {w}")));
+            info.warnings.extend(warnings.iter().map(|w| Warning {
+                kind: w.kind,
+                message: format!("line {line}: {w}"),
+            }));
             let entry_key = key.clone();
             let entry = ManifestEntry {
                 line,

@@ -133,7 +133,13 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
         object_name: model_path.display().to_string(),
         ..Default::default()
     };
-    let (material, info) = estimate_material(&analysis, &model, &hit, &ep, &|| {})?;
+    let (material, info) = estimate_material(
+        &analysis,
+        &model,
+        &hit,
+        &ep,
+        &resound_core::progress::ignore,
+    )?;
     resound_io::library::write_material(&dir.join("material.json"), &material)?;
     estimate_plot(
         &dir.join("estimate.png"),
@@ -196,7 +202,7 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
         &recs,
         gfs,
         &resound_grains::AnalyzeParams::default(),
-        &|_, _| {},
+        &resound_core::progress::ignore,
     )?;
     resound_io::grains_file::save(&dir.join("demo.grains"), &dict)?;
     let rebuilt = resound_grains::resynth::resynthesize(&dict, 0, &Default::default())?;
@@ -237,8 +243,7 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
             keep_level: false,
             live: None,
         },
-        &|_| {},
-        &|_| {},
+        &resound_core::progress::ignore,
     )?;
     let refs: Vec<&[f32]> = scene.channels.iter().map(|c| c.as_slice()).collect();
     write_wav_channels(

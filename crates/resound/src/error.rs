@@ -58,6 +58,17 @@ pub enum Error {
     /// asked for). Front ends add how to ask (`--force`, `replace=True`).
     #[error("the library already has a material named {0:?}")]
     Exists(String),
+    /// A fitted result that is not credible (a value at its bound or outside physical
+    /// ranges): not returned unless asked for. Front ends add how to ask
+    /// (`--allow-implausible`, `allow_implausible=True`).
+    #[error("the estimate is not credible: {0}")]
+    Implausible(String),
+    /// The audio device failed (live playback).
+    #[error("audio device: {0}")]
+    Device(String),
+    /// This build has no live audio (the `live` feature).
+    #[error("this build has no live audio (the `live` feature; needs ALSA headers, libasound2-dev, on Linux)")]
+    NoLiveAudio,
     /// `cause` happened while working on `what` (a file, a body, a step). The message holds
     /// the cause's; it is not also reported as [`std::error::Error::source`], so a chain
     /// printer (anyhow's `{:#}`) says it once.
@@ -82,6 +93,26 @@ impl Error {
     /// The same for a path.
     pub fn at(self, path: &std::path::Path) -> Self {
         self.context(path.display().to_string())
+    }
+
+    /// The error under every [`Error::In`] context: the variant a front end maps to its
+    /// own advice (a flag, a keyword).
+    pub fn root(&self) -> &Error {
+        match self {
+            Error::In { cause, .. } => cause.root(),
+            e => e,
+        }
+    }
+
+    /// Whether the eigen-solve found more modes below the band edge than it may keep (a
+    /// mesh in the wrong unit, or a band too wide): front ends name their settings for it.
+    pub fn is_too_many_modes(&self) -> bool {
+        matches!(
+            self.root(),
+            Error::Modal(resound_modal::ModelError::Eigen(
+                resound_modal::ModalError::TooManyModes { .. }
+            ))
+        )
     }
 }
 

@@ -90,8 +90,8 @@ pub fn load_modes(path: &Path) -> Result<Vec<DampedMode>> {
 
 /// Fits mode statistics (Traer 2019) of `material` to recordings of it (the first strike of
 /// each, high-passed at `highpass_hz`): `modes` modes per impulse response, plus the transient
-/// bands of what the modes leave (eq. 3). `each` hears of every analysed file and its mode
-/// count.
+/// bands of what the modes leave (eq. 3). `progress` hears [`Stage::Analyzing`](crate::Stage::Analyzing) for every
+/// analysed file (labelled with it and its mode count).
 ///
 /// # Errors
 /// Unreadable or silent recordings; too few recordings or modes for the fit.
@@ -100,7 +100,7 @@ pub fn fit_stats(
     material: &str,
     modes: usize,
     highpass_hz: Option<f64>,
-    each: &dyn Fn(&Path, usize),
+    progress: crate::ProgressFn<'_>,
 ) -> Result<ModeStatistics> {
     let mut all = Vec::new();
     let mut transients = Vec::new();
@@ -108,9 +108,15 @@ pub fn fit_stats(
         highpass_hz,
         ..Default::default()
     };
-    for p in recordings {
+    for (i, p) in recordings.iter().enumerate() {
         let (_, r) = crate::recording::analyze_file(p, &Default::default(), &params)?;
-        each(p, r.modes.len());
+        progress(
+            crate::Progress::fraction(
+                crate::Stage::Analyzing,
+                (i + 1) as f64 / recordings.len() as f64,
+            )
+            .with_label(format!("{}: {} modes", p.display(), r.modes.len())),
+        );
         let fs = r.sample_rate_hz;
         let modal = resound_core::damped::synthesize(&r.modes, fs, r.segment.len());
         let residual: Vec<f64> = r.segment.iter().zip(&modal).map(|(a, b)| a - b).collect();

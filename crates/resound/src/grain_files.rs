@@ -304,14 +304,14 @@ pub fn analyze_to_file(
     params: &resound_grains::AnalyzeParams,
     prune: Option<f64>,
     output: &Path,
-    progress: &(dyn Fn(resound_grains::Stage, f64) + Sync),
+    progress: resound_core::progress::ProgressFn<'_>,
 ) -> Result<DictionaryFile> {
     let (dict, analysis) = resound_grains::analyze(recordings, sample_rate_hz, params, progress)?;
     let dict = match prune {
         Some(c) if c > 0.0 && c < 1.0 => resound_grains::prune::prune(&dict, c),
         Some(c) => {
             return Err(invalid(format!(
-                "--prune must be a correlation in (0, 1), got {c}"
+                "the pruning threshold must be a correlation in (0, 1), got {c}"
             )))
         }
         None => dict,

@@ -19,7 +19,7 @@
 //! // Its modes, and the material behind them (α, β, γ, σ and the residual).
 //! let (_, analysis) = analyze_file(&wav, &Default::default(), &Default::default())?;
 //! let params = EstimateMaterialParams { name: "bar".into(), ..Default::default() };
-//! let (material, _) = estimate_material(&analysis, &recorded, &hit, &params, &|| {})?;
+//! let (material, _) = estimate_material(&analysis, &recorded, &hit, &params, &|_| {})?;
 //! // The same material on a plate, struck by a 5 mm steel ball at 2 m/s.
 //! let plate = primitive::bar([0.2, 0.15, 0.004]);
 //! let other = ModalBuilder::surface(&plate, &aluminium).modes(30).solve()?.model;
@@ -50,6 +50,7 @@ pub mod demo;
 mod error;
 pub mod files;
 pub mod grain_files;
+pub mod live;
 pub mod material;
 pub mod mesh;
 pub mod model_cache;
@@ -61,6 +62,7 @@ pub mod scrape;
 pub mod strike;
 
 pub use error::{Error, Result};
+pub use resound_core::progress::{self, Progress, ProgressFn, Stage, Warning, WarningKind};
 
 /// The types and pipeline functions most programs need.
 pub mod prelude {
@@ -69,6 +71,7 @@ pub mod prelude {
     pub use crate::recording::{analyze_file, load_recording, RecordingParams};
     pub use crate::scene::{render_scene, SceneRenderParams};
     pub use crate::strike::{render_strike, StrikeParams, Struck};
+    pub use resound_core::progress::{Progress, ProgressFn, Warning};
     pub use resound_core::{DampedMode, Hit, Material, ModalModel, SoundMaterial};
     pub use resound_fem::{primitive, SurfaceMesh, TetMesh};
     pub use resound_modal::{ModalBuilder, ModalParams, ModalSolveInfo};

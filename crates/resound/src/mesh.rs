@@ -61,7 +61,7 @@ pub fn make_primitive(kind: PrimitiveKind, s: &[f64], segments: usize) -> Result
         )))
     };
     if !(3..=4096).contains(&segments) {
-        return Err(invalid("--segments must be in 3..=4096"));
+        return Err(invalid("the segment count must be in 3..=4096"));
     }
     if s.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
         return Err(invalid("every size must be a positive number of metres"));

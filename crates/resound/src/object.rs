@@ -1,9 +1,10 @@
 //! The struck object: a modal model from a saved `.rmodal` or from a mesh solved on the spot.
 
 use crate::error::{Error, Result};
+use resound_core::progress::ProgressFn;
 use resound_core::{Hit, Material, ModalModel};
 use resound_io::{load_mesh, model_file, LoadedMesh};
-use resound_modal::{Geometry, ModalBuilder, ModalParams, ModalSolution, ModalSolveInfo, Stage};
+use resound_modal::{Geometry, ModalBuilder, ModalParams, ModalSolution, ModalSolveInfo};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -48,7 +49,7 @@ pub fn solve_mesh_file(
     scale: f64,
     material: &Material,
     params: &ModalParams,
-    progress: &(dyn Fn(Stage) + Sync),
+    progress: ProgressFn<'_>,
 ) -> Result<ModalSolution> {
     if !(1e-6..=1e6).contains(&scale) {
         return Err(crate::error::invalid(format!(
@@ -71,18 +72,14 @@ pub fn solve_mesh_file(
         .progress(progress)
         .solve()
         .map_err(|e| {
-            let too_many = matches!(
-                e,
-                resound_modal::ModelError::Eigen(resound_modal::ModalError::TooManyModes { .. })
-            );
             let e = Error::from(e);
-            if too_many {
-                crate::error::invalid(format!(
-                    "{e}. The object spans {size_m:.3} m: if the file is not in metres pass \
-                     --scale (0.001 for millimetres), else lower --max-freq-hz, ask for \
-                     --modes N or raise --max-modes"
+            if e.is_too_many_modes() {
+                // The size tells a file in millimetres from a band too wide; each front end
+                // names its own settings for both (`Error::is_too_many_modes`).
+                e.context(format!(
+                    "{} (the object spans {size_m:.3} m)",
+                    path.display()
                 ))
-                .at(path)
             } else {
                 e.at(path)
             }
@@ -96,7 +93,7 @@ pub fn solve_mesh_file(
 pub fn load_object(
     path: &Path,
     params: &ObjectParams,
-    progress: &(dyn Fn(Stage) + Sync),
+    progress: ProgressFn<'_>,
 ) -> Result<ModalModel> {
     let model = if is_model_file(path) {
         model_file::load(path)?
@@ -130,7 +127,7 @@ pub fn solve_surface(
     vertices: &[[f64; 3]],
     triangles: &[[u32; 3]],
     params: &ObjectParams,
-    progress: &(dyn Fn(Stage) + Sync),
+    progress: ProgressFn<'_>,
 ) -> Result<ModalModel> {
     use crate::error::invalid;
     let scale = params.scale;
@@ -291,7 +288,7 @@ pub struct ModalReport {
     /// Surface vertices.
     pub surface_vertices: usize,
     /// Things the user should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<resound_core::Warning>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     /// The voxel grid (surface meshes).
     pub voxel: Option<VoxelRow>,
@@ -367,4 +364,147 @@ impl ModalReport {
                 .collect(),
         }
     }
+}
+
+/// A hit at the surface point nearest `query` (model coordinates, m), with a note when the
+/// point moved by more than a micrometre (front ends show it: a point far off the surface is
+/// usually a mistake).
+///
+/// # Errors
+/// A non-finite query; a model without a surface.
+pub fn snap_hit(
+    model: &ModalModel,
+    query: [f64; 3],
+) -> Result<(resound_core::Hit, Option<String>)> {
+    let hit = model.hit(query)?;
+    let note = (hit.at.distance > 1e-6).then(|| {
+        format!(
+            "hit point {query:?} is {:.2} mm off the surface; using the nearest surface point {:?}",
+            hit.at.distance * 1e3,
+            hit.at.point
+        )
+    });
+    Ok((hit, note))
+}
+
+/// What [`solve_object`] does: `resound modal`'s inputs (and the studio's object step).
+#[derive(Clone, Debug)]
+pub struct SolveJob {
+    /// A closed surface or tet mesh.
+    pub mesh: std::path::PathBuf,
+    /// Scale applied to its coordinates (0.001 for millimetres).
+    pub scale: f64,
+    /// The material of the solve.
+    pub material: Material,
+    /// The solve's settings.
+    pub modal: ModalParams,
+    /// Fit each mode's acoustic transfer with these settings too.
+    pub transfer: Option<resound_modal::TransferParams>,
+    /// A hit point, m (model coordinates): the report gives each mode's gain there.
+    pub hit_m: Option<[f64; 3]>,
+    /// Write K and M as Matrix Market files `K.mtx` and `M.mtx` into this directory.
+    pub export_matrices: Option<std::path::PathBuf>,
+}
+
+/// A solved object: the model and its report (`modal --json`).
+#[derive(Debug)]
+pub struct SolveOutcome {
+    /// The model (with its transfer when asked for).
+    pub model: ModalModel,
+    /// The report (with the hit's gains when a hit was given).
+    pub report: ModalReport,
+    /// The hit on the surface, when one was given.
+    pub hit: Option<Hit>,
+    /// Repairs made to the surface mesh, one per line.
+    pub repairs: Vec<String>,
+}
+
+/// Solves `job`: the modes, then the acoustic transfer and the matrices when asked for.
+/// `progress` hears every stage ([`Stage::Assembling`](crate::Stage), the eigen-solve's,
+/// [`Stage::Transfer`](crate::Stage)) and the warnings.
+///
+/// # Errors
+/// Unreadable meshes, failed solves or fits, a hit off the surface, unwritable matrices.
+pub fn solve_object(job: &SolveJob, progress: ProgressFn<'_>) -> Result<SolveOutcome> {
+    use resound_core::progress::{Progress, Stage, Warning, WarningKind};
+    if let Some(f) = job.modal.max_freq_hz {
+        if !(f > 0.0 && f.is_finite() && f <= 1e6) {
+            return Err(Error::Param {
+                field: "max_freq_hz",
+                message: format!("the top frequency {f} Hz must be in (0, 1e6]"),
+            });
+        }
+    }
+    progress(Progress::begin(Stage::Assembling));
+    let mut solved = solve_mesh_file(&job.mesh, job.scale, &job.material, &job.modal, progress)?;
+    let mut warnings = Vec::new();
+    let transfer = match &job.transfer {
+        Some(params) => {
+            progress(
+                Progress::begin(Stage::Transfer)
+                    .with_label(format!("of {} modes", solved.model.n_modes())),
+            );
+            let t0 = std::time::Instant::now();
+            let info = crate::radiation::add_transfer(&mut solved.model, params)?;
+            if info.poorly_fitted > 0 {
+                warnings.push(Warning::new(
+                    WarningKind::PoorTransfer,
+                    format!(
+                        "{} modes' surface velocity is fitted with more than 90 % misfit \
+                         (worst {:.2}): their radiation is approximate (more equivalent \
+                         sources, or a finer mesh)",
+                        info.poorly_fitted, info.worst_residual
+                    ),
+                ));
+            }
+            Some(TransferRow {
+                info,
+                fit_s: t0.elapsed().as_secs_f64(),
+            })
+        }
+        None => None,
+    };
+    if let (Some(dir), Some(fem)) = (&job.export_matrices, &solved.fem) {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            Error::from(resound_io::IoError::Io {
+                path: dir.clone(),
+                error: e,
+            })
+        })?;
+        let note = format!(
+            "resound {} {}: {} DOFs; DOF 3*node+c",
+            env!("CARGO_PKG_VERSION"),
+            fem.element,
+            fem.n_dofs()
+        );
+        resound_io::mtx::write_symmetric(
+            &dir.join("K.mtx"),
+            fem.k.as_ref(),
+            &format!("stiffness K (N/m)\n{note}"),
+        )?;
+        resound_io::mtx::write_symmetric(
+            &dir.join("M.mtx"),
+            fem.m.as_ref(),
+            &format!("mass M (kg)\n{note}"),
+        )?;
+    }
+    let hit = job.hit_m.map(|h| solved.model.hit(h)).transpose()?;
+    let mut report = ModalReport::new(&solved.model, Some(&solved.info), hit.as_ref());
+    report.transfer = transfer;
+    report.warnings.extend(warnings);
+    for w in &report.warnings {
+        progress(Progress::Warning(w.clone()));
+    }
+    let repairs = solved
+        .info
+        .discretize
+        .as_ref()
+        .map(|r| r.repair.lines())
+        .unwrap_or_default();
+    Ok(SolveOutcome {
+        model: solved.model,
+        report,
+        hit,
+        repairs,
+    })
 }

@@ -8,6 +8,7 @@
 //! quieter than their surface motion alone says.
 
 use crate::error::{invalid, Result};
+use resound_core::progress::{Warning, WarningKind};
 use resound_core::radiation::FieldScratch;
 use resound_core::{AcousticTransfer, ModalModel};
 use resound_modal::radiation::{model_transfer, TransferInfo, TransferParams};
@@ -52,7 +53,7 @@ pub fn mic_factors(
     transfer: &AcousticTransfer,
     freqs_hz: &[f64],
     mic: [f64; 3],
-) -> Result<(Vec<f64>, Vec<String>)> {
+) -> Result<(Vec<f64>, Vec<Warning>)> {
     if mic.iter().any(|c| !c.is_finite()) {
         return Err(invalid(format!(
             "microphone position {mic:?} is not finite"
@@ -71,10 +72,13 @@ pub fn mic_factors(
         .sum::<f64>()
         .sqrt();
     if d < transfer.radius_m {
-        warnings.push(format!(
+        warnings.push(Warning::new(
+            WarningKind::Geometry,
+            format!(
             "the microphone is {d:.3} m from the object's centre, inside the {:.3} m sphere that \
              holds it: its radiation is evaluated on that sphere",
             transfer.radius_m
+        ),
         ));
     }
     let mut scratch = FieldScratch::new(transfer.max_order());
@@ -103,22 +107,31 @@ pub fn mic_factors(
         })
         .collect::<Vec<f64>>();
     if out_of_range > 0 {
-        warnings.push(format!(
-            "{out_of_range} modes sound outside the frequency range their transfer was fitted \
+        warnings.push(Warning::new(
+            WarningKind::PoorTransfer,
+            format!(
+                "{out_of_range} modes sound outside the frequency range their transfer was fitted \
              for (the material moves them more than the stored octaves): their radiation is \
              taken at the nearest stored frequency"
+            ),
         ));
     }
     if missing > 0 {
-        warnings.push(format!(
+        warnings.push(Warning::new(
+            WarningKind::PoorTransfer,
+            format!(
             "{missing} modes have no stored transfer (above the fit's top frequency): they are \
              left out"
+        ),
         ));
     }
     if poor > 0 {
-        warnings.push(format!(
-            "{poor} modes' surface velocity is fitted with more than 90 % misfit (a shape far \
+        warnings.push(Warning::new(
+            WarningKind::PoorTransfer,
+            format!(
+                "{poor} modes' surface velocity is fitted with more than 90 % misfit (a shape far \
              from a sphere or a high frequency): their radiation is approximate"
+            ),
         ));
     }
     if factors.iter().any(|f| !f.is_finite()) {

@@ -5,6 +5,7 @@
 //! sees the same samples.
 
 use crate::error::{invalid, Error, Result};
+use resound_core::progress::{Warning, WarningKind};
 use resound_core::DampedMode;
 use resound_io::load_audio;
 use resound_signal::{analyze, Analysis, AnalyzeParams};
@@ -38,7 +39,7 @@ pub struct AnalysisReport {
     /// Samples in flat runs at the peak.
     pub clipped_samples: usize,
     /// Warnings (clipping, several strikes, …).
-    pub warnings: Vec<String>,
+    pub warnings: Vec<resound_core::Warning>,
     /// Wall time of the analysis, s.
     pub elapsed_s: f64,
     /// The modes, by frequency; t = 0 at the onset.
@@ -239,7 +240,7 @@ pub fn analyze_takes(
     recording: &RecordingParams,
     params: &AnalyzeParams,
     select: TakeSelection,
-) -> Result<(Vec<AnalysedTake>, Vec<String>)> {
+) -> Result<(Vec<AnalysedTake>, Vec<resound_core::Warning>)> {
     let clip = load_audio(path)?;
     let channels: Vec<Option<usize>> = if select.every_channel {
         (0..clip.channels.len()).map(Some).collect()
@@ -289,15 +290,22 @@ pub fn analyze_takes(
             };
             match a {
                 Ok(a) if !a.modes.is_empty() => takes.push(AnalysedTake { label, analysis: a }),
-                Ok(_) => skipped.push(format!("{label}: no modes")),
-                Err(e) => skipped.push(format!("{label}: {e}")),
+                Ok(_) => skipped.push(Warning::new(
+                    WarningKind::Input,
+                    format!("{label}: no modes"),
+                )),
+                Err(e) => skipped.push(Warning::new(WarningKind::Input, format!("{label}: {e}"))),
             }
         }
     }
     if takes.is_empty() {
         return Err(invalid(format!(
             "no strike of {name} gives modes to estimate from ({})",
-            skipped.join("; ")
+            skipped
+                .iter()
+                .map(|w| w.message.as_str())
+                .collect::<Vec<_>>()
+                .join("; ")
         )));
     }
     Ok((takes, skipped))

@@ -15,6 +15,7 @@
 use crate::error::{invalid, Error, Result};
 use crate::material::resolve_material;
 use crate::model_cache::{KeyBuilder, ModelCache};
+use resound_core::progress::{Progress, ProgressFn, Stage, Warning, WarningKind};
 use resound_core::{Material, ModalModel, SoundMaterial};
 use resound_fem::{primitive, SurfaceMesh};
 use resound_io::library::Library;
@@ -32,8 +33,8 @@ pub struct BuildOptions<'a> {
     pub library: Option<&'a Library>,
     /// Directory for cached modal models (`None`: no cache).
     pub cache_dir: Option<PathBuf>,
-    /// Progress messages.
-    pub progress: &'a dyn Fn(&str),
+    /// Progress: [`Stage::Building`] per body, [`Stage::Transfer`], and build warnings.
+    pub progress: ProgressFn<'a>,
 }
 
 /// The surface mesh and collider shape of a body, in the body frame.
@@ -132,7 +133,7 @@ fn body_transfer(
     model: &std::sync::Arc<ModalModel>,
     cache_file: Option<&Path>,
     transfers: &mut Transfers,
-    progress: &dyn Fn(&str),
+    progress: ProgressFn<'_>,
 ) -> Result<std::sync::Arc<resound_core::AcousticTransfer>> {
     let key = std::sync::Arc::as_ptr(model) as usize;
     if let Some(t) = transfers.get(&key) {
@@ -141,7 +142,7 @@ fn body_transfer(
     let t = match &model.transfer {
         Some(t) => std::sync::Arc::new(t.clone()),
         None => {
-            progress("fitting the acoustic transfer");
+            progress(Progress::begin(Stage::Transfer));
             let mut m = (**model).clone();
             crate::radiation::add_transfer(
                 &mut m,
@@ -301,7 +302,10 @@ pub fn build_scene(
     > = std::collections::HashMap::new();
     for (i, b) in scene.body.iter().enumerate() {
         let fail = |e: Error| e.context(format!("body {:?}", b.name));
-        (opts.progress)(&format!("body {}/{}: {}", i + 1, scene.body.len(), b.name));
+        (opts.progress)(
+            Progress::fraction(Stage::Building, i as f64 / scene.body.len() as f64)
+                .with_label(format!("body {}/{}: {}", i + 1, scene.body.len(), b.name)),
+        );
         let material = match &b.material {
             resound_io::scene::MaterialSpec::Name(spec) => {
                 resolve_material(spec, opts.base_dir, opts.library).map_err(fail)?
@@ -377,13 +381,17 @@ pub fn build_scene(
                     })
                     .count();
                 if poor > 0 {
-                    (opts.progress)(&format!(
-                        "warning: body {:?}: the acoustic transfer fits {poor} of its {} sounding \
-                         modes poorly (misfit > 0.9: a shape far from smooth, or wavelengths \
-                         shorter than the fit resolves): their levels are uncertain",
-                        b.name,
-                        s.modes.len()
-                    ));
+                    (opts.progress)(Progress::Warning(Warning::new(
+                        WarningKind::PoorTransfer,
+                        format!(
+                            "body {:?}: the acoustic transfer fits {poor} of its {} sounding \
+                             modes poorly (misfit > 0.9: a shape far from smooth, or \
+                             wavelengths shorter than the fit resolves): their levels are \
+                             uncertain",
+                            b.name,
+                            s.modes.len()
+                        ),
+                    )));
                 }
             }
             Some(s)
@@ -391,11 +399,14 @@ pub fn build_scene(
             None
         };
         if scene.radiation && sound.as_ref().is_some_and(|s| s.radiation.is_none()) {
-            (opts.progress)(&format!(
-                "warning: body {:?} sounds from statistics and has no acoustic transfer: its \
-                 modes radiate alike (1/r)",
-                b.name
-            ));
+            (opts.progress)(Progress::Warning(Warning::new(
+                WarningKind::PoorTransfer,
+                format!(
+                    "body {:?} sounds from statistics and has no acoustic transfer: its modes \
+                     radiate alike (1/r)",
+                    b.name
+                ),
+            )));
         }
         let mut sound = sound;
         if let (Some(s), Some(eta)) = (sound.as_mut(), b.contact_damping) {
@@ -490,8 +501,9 @@ pub struct SceneSummary {
     pub events: usize,
     /// This process's peak resident memory, MB (0 where unknown).
     pub peak_rss_mb: f64,
-    /// Things the user should know (build warnings such as uncertain radiation, silence,
-    /// turned down to avoid clipping).
+    /// Things the user should know (uncertain radiation, silence).
+    pub warnings: Vec<Warning>,
+    /// What was done to the level (turned down to avoid clipping).
     pub notes: Vec<String>,
     /// Live-path figures (a run with a simulated device).
     #[serde(skip_serializing_if = "Option::is_none", default)]
@@ -525,14 +537,14 @@ pub fn peak_rss_mb() -> f64 {
 }
 
 /// Reads and builds the scene file `path` (bodies with their sound, and settings), without
-/// running it; `stage` gets build messages.
+/// running it; `progress` hears the build's stages and warnings.
 ///
 /// # Errors
 /// Unreadable or invalid scene files (with line and field), bodies that cannot be built.
 pub fn load_scene(
     path: &Path,
     params: &SceneRenderParams,
-    stage: &dyn Fn(&str),
+    progress: ProgressFn<'_>,
 ) -> Result<(Vec<BodySpec>, SceneParams)> {
     let scene = resound_io::scene::read_scene(path)?;
     let base_dir = path
@@ -543,7 +555,7 @@ pub fn load_scene(
         &base_dir,
         &path.display().to_string(),
         params,
-        stage,
+        progress,
     )
 }
 
@@ -552,7 +564,7 @@ fn build_parsed(
     base_dir: &Path,
     label: &str,
     params: &SceneRenderParams,
-    stage: &dyn Fn(&str),
+    progress: ProgressFn<'_>,
 ) -> Result<(Vec<BodySpec>, SceneParams)> {
     let library = crate::material::read_library(params.library.as_deref())?;
     build_scene(
@@ -561,14 +573,14 @@ fn build_parsed(
             base_dir,
             library: library.as_ref(),
             cache_dir: params.cache_dir.clone(),
-            progress: stage,
+            progress,
         },
     )
     .map_err(|e| e.context(format!("building {label}")))
 }
 
-/// Reads, builds and renders the scene file `path`: `stage` gets build messages, `simulated`
-/// the simulated fraction. With `params.live`, the scene runs through the live path (physics
+/// Reads, builds and renders the scene file `path`: `progress` hears [`Stage::Building`],
+/// [`Stage::Transfer`], [`Stage::Simulating`] and every warning (which the summary keeps). With `params.live`, the scene runs through the live path (physics
 /// on its own thread, device blocks from a simulated device) and the result is what a device
 /// would have played, `latency` samples late.
 ///
@@ -578,32 +590,33 @@ fn build_parsed(
 pub fn render_scene(
     path: &Path,
     params: &SceneRenderParams,
-    stage: &dyn Fn(&str),
-    simulated: &dyn Fn(f64),
+    progress: ProgressFn<'_>,
 ) -> Result<SceneRender> {
     let t0 = std::time::Instant::now();
-    let warnings = std::cell::RefCell::new(Vec::new());
-    let (bodies, sp) = load_scene(path, params, &collecting(stage, &warnings))?;
+    let warnings = std::sync::Mutex::new(Vec::new());
+    let (bodies, sp) = load_scene(path, params, &collecting(progress, &warnings))?;
     run_built(
         bodies,
         sp,
         t0,
         &path.display().to_string(),
         params,
-        simulated,
-        warnings.into_inner(),
+        progress,
+        warnings.into_inner().unwrap_or_default(),
     )
 }
 
-/// `stage` for build messages, except warnings (`warning: …`), which go to `warnings`: they
-/// reach the summary's notes, which every front end shows (a progress message may not be).
+/// `progress`, keeping a copy of every warning for the summary (which every front end shows,
+/// while a progress report may not be).
 fn collecting<'a>(
-    stage: &'a dyn Fn(&str),
-    warnings: &'a std::cell::RefCell<Vec<String>>,
-) -> impl Fn(&str) + 'a {
-    move |m: &str| match m.strip_prefix("warning: ") {
-        Some(w) => warnings.borrow_mut().push(w.to_string()),
-        None => stage(m),
+    progress: ProgressFn<'a>,
+    warnings: &'a std::sync::Mutex<Vec<Warning>>,
+) -> impl Fn(Progress) + Sync + 'a {
+    move |p: Progress| {
+        if let (Progress::Warning(w), Ok(mut all)) = (&p, warnings.lock()) {
+            all.push(w.clone());
+        }
+        progress(p);
     }
 }
 
@@ -618,12 +631,11 @@ pub fn render_scene_text(
     label: &str,
     base_dir: &Path,
     params: &SceneRenderParams,
-    stage: &dyn Fn(&str),
-    simulated: &dyn Fn(f64),
+    progress: ProgressFn<'_>,
 ) -> Result<SceneRender> {
     let t0 = std::time::Instant::now();
     let scene = resound_io::scene::parse_scene(text, label)?;
-    render_parsed(&scene, t0, label, base_dir, params, stage, simulated)
+    render_parsed(&scene, t0, label, base_dir, params, progress)
 }
 
 /// [`render_scene`] of a scene deserialized into the scene file's types from any format (a
@@ -637,12 +649,11 @@ pub fn render_scene_value(
     label: &str,
     base_dir: &Path,
     params: &SceneRenderParams,
-    stage: &dyn Fn(&str),
-    simulated: &dyn Fn(f64),
+    progress: ProgressFn<'_>,
 ) -> Result<SceneRender> {
     let t0 = std::time::Instant::now();
     let scene = resound_io::scene::validate_scene(scene, label, None)?;
-    render_parsed(&scene, t0, label, base_dir, params, stage, simulated)
+    render_parsed(&scene, t0, label, base_dir, params, progress)
 }
 
 fn render_parsed(
@@ -651,16 +662,15 @@ fn render_parsed(
     label: &str,
     base_dir: &Path,
     params: &SceneRenderParams,
-    stage: &dyn Fn(&str),
-    simulated: &dyn Fn(f64),
+    progress: ProgressFn<'_>,
 ) -> Result<SceneRender> {
-    let warnings = std::cell::RefCell::new(Vec::new());
+    let warnings = std::sync::Mutex::new(Vec::new());
     let (bodies, sp) = build_parsed(
         scene,
         base_dir,
         label,
         params,
-        &collecting(stage, &warnings),
+        &collecting(progress, &warnings),
     )?;
     run_built(
         bodies,
@@ -668,8 +678,8 @@ fn render_parsed(
         t0,
         label,
         params,
-        simulated,
-        warnings.into_inner(),
+        progress,
+        warnings.into_inner().unwrap_or_default(),
     )
 }
 
@@ -679,8 +689,8 @@ fn run_built(
     t0: std::time::Instant,
     label: &str,
     params: &SceneRenderParams,
-    simulated: &dyn Fn(f64),
-    build_warnings: Vec<String>,
+    progress: ProgressFn<'_>,
+    build_warnings: Vec<Warning>,
 ) -> Result<SceneRender> {
     let build_s = t0.elapsed().as_secs_f64();
     let t1 = std::time::Instant::now();
@@ -688,7 +698,7 @@ fn run_built(
         |e: resound_physics::SceneError| Error::from(e).context(format!("simulating {label}"));
     let (mut out, live) = match &params.live {
         None => (
-            resound_physics::simulate(&bodies, &sp, simulated).map_err(context)?,
+            resound_physics::simulate(&bodies, &sp, progress).map_err(context)?,
             None,
         ),
         Some(lp) => {
@@ -711,11 +721,18 @@ fn run_built(
     };
     let level =
         resound_synth::render::set_level(&mut out.channels, resound_synth::render::CEILING, mode)?;
-    let mut notes = build_warnings;
+    let mut warnings = build_warnings;
+    let mut notes = Vec::new();
     if level.peak_before == 0.0 {
-        notes.push("the scene is silent (no sounding contacts)".to_string());
+        let w = Warning::new(
+            WarningKind::Quiet,
+            "the scene is silent (no sounding contacts)",
+        );
+        progress(Progress::Warning(w.clone()));
+        warnings.push(w);
     } else if let Some(w) = level.quiet_warning() {
-        notes.push(w);
+        progress(Progress::Warning(w.clone()));
+        warnings.push(w);
     } else if params.keep_level && level.gain_db < 0.0 {
         notes.push(format!(
             "peak {:.2} of full scale; turned down by {:.1} dB (no clipping)",
@@ -739,6 +756,7 @@ fn run_built(
         gain_db: level.gain_db,
         events: out.events.len(),
         peak_rss_mb: peak_rss_mb(),
+        warnings,
         notes,
         live,
     };

@@ -1,9 +1,10 @@
 //! Scraping (Traer 2019 §4) from files: a trajectory, a surface texture, an object's modes.
 
 use crate::error::{invalid, Error, Result};
-use resound_core::DampedMode;
+use resound_core::{DampedMode, Warning};
 use resound_synth::render::{bank_modes, REFERENCE_IMPULSE_N_S};
 use resound_synth::scrape::{positions, scrape, scrape_force, ScrapeParams, Surface};
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
 /// Reads a trajectory CSV: `time_s,position_m` per line (a header line and `#` comments are
@@ -106,12 +107,37 @@ pub struct ScrapeJob {
 /// variation between neighbours is smooth long before this.
 pub const MAX_IRS: usize = 256;
 
-/// Renders `job`: the sound (not normalized) and the length of the path scraped, m.
+/// What [`render_scrape`] did: the report `scrape --json` prints and Python returns.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ScrapeInfo {
+    /// Modes below Nyquist that sounded.
+    pub modes: usize,
+    /// Length of the path scraped, m.
+    pub path_m: f64,
+    /// Peak before any level change, full scale = 1.
+    pub peak: f32,
+    /// Level change applied to avoid clipping, dB (0 or negative).
+    pub gain_db: f32,
+    /// Things the user should know (an inaudible render).
+    pub warnings: Vec<Warning>,
+}
+
+/// A rendered scrape.
+#[derive(Clone, Debug)]
+pub struct ScrapeRender {
+    /// Mono samples at the job's rate, never clipping (turned down when they would).
+    pub samples: Vec<f32>,
+    /// The report.
+    pub info: ScrapeInfo,
+}
+
+/// Renders `job`: the sound at its physical level (turned down only where it would clip; the
+/// report says by how much) and the report.
 ///
 /// # Errors
 /// Parameters out of range (IRs beyond [`MAX_IRS`]), an unusable surface, no modes below
 /// Nyquist.
-pub fn render_scrape(job: &ScrapeJob) -> Result<(Vec<f32>, f64)> {
+pub fn render_scrape(job: &ScrapeJob) -> Result<ScrapeRender> {
     let fs = f64::from(job.sample_rate_hz);
     let p = &job.params;
     if !resound_core::limits::sample_rate_ok(fs) {
@@ -180,7 +206,17 @@ pub fn render_scrape(job: &ScrapeJob) -> Result<(Vec<f32>, f64)> {
     let mut bm = bank_modes(&modes);
     bm.iter_mut().for_each(|m| m.gain /= REFERENCE_IMPULSE_N_S);
     let force = scrape_force(&surface, &x, fs, p);
-    let out = scrape(&bm, &force, &x, fs, job.irs, job.seed)?;
+    let mut out = scrape(&bm, &force, &x, fs, job.irs, job.seed)?;
     let path_m = x.windows(2).map(|w| (w[1] - w[0]).abs()).sum::<f64>();
-    Ok((out, path_m))
+    let level = resound_synth::render::normalize(&mut out, resound_synth::render::CEILING)?;
+    Ok(ScrapeRender {
+        samples: out,
+        info: ScrapeInfo {
+            modes: modes.len(),
+            path_m,
+            peak: level.peak_before,
+            gain_db: level.gain_db,
+            warnings: level.quiet_warning().into_iter().collect(),
+        },
+    })
 }

@@ -112,7 +112,7 @@ pub struct StrikeInfo {
     pub elapsed_s: f64,
     /// What is not credible about this strike (below audibility, a microphone inside the
     /// object's enclosing sphere, …).
-    pub warnings: Vec<String>,
+    pub warnings: Vec<resound_core::Warning>,
 }
 
 impl StrikeInfo {
@@ -148,13 +148,11 @@ pub fn measure_level(s: &mut Strike) {
         gain_db: 0.0,
     };
     s.info.peak = level.peak_before;
-    s.info.warnings.retain(|w| !w.starts_with(QUIET_PREFIX));
+    s.info
+        .warnings
+        .retain(|w| w.kind != resound_core::WarningKind::Quiet);
     s.info.warnings.extend(level.quiet_warning());
 }
-
-/// How [`LevelReport::quiet_warning`](resound_synth::render::LevelReport::quiet_warning)'s
-/// warnings begin.
-const QUIET_PREFIX: &str = "the render ";
 
 fn finish(mut s: Strike, t0: std::time::Instant) -> Strike {
     measure_level(&mut s);
@@ -401,4 +399,131 @@ pub fn render_strike(struck: Struck<'_>, p: &StrikeParams) -> Result<Strike> {
         },
         t0,
     ))
+}
+
+/// What sounds, from files: the inputs of `synth` and `scrape` (and the studio's audition).
+#[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)] // one per command, never in a collection
+pub enum StrikeSource {
+    /// A modes file (JSON rows of f, d, a, φ).
+    Modes(std::path::PathBuf),
+    /// Mode statistics (Traer 2019), sampled with `seed`.
+    Stats {
+        /// The statistics file.
+        path: std::path::PathBuf,
+        /// Which sample.
+        seed: u64,
+    },
+    /// A material on an object struck at a point.
+    Object {
+        /// The material: a material file or a library, built-in or preset name.
+        material: String,
+        /// The material library (`None`: the default one).
+        library: Option<std::path::PathBuf>,
+        /// The object: a mesh or a saved modal model.
+        object: std::path::PathBuf,
+        /// How a mesh is solved.
+        object_params: crate::object::ObjectParams,
+        /// Hit point, m (model coordinates; snapped to the surface).
+        hit_m: [f64; 3],
+    },
+}
+
+/// A material from a file (`*.json` or an existing path) or the library at `library` (the
+/// default one when `None`), a built-in or a preset.
+///
+/// # Errors
+/// Unreadable files or library; an unknown name; an invalid material.
+pub fn load_material_spec(spec: &str, library: Option<&std::path::Path>) -> Result<SoundMaterial> {
+    let path = std::path::Path::new(spec);
+    let lib = if path.is_file() || spec.to_ascii_lowercase().ends_with(".json") {
+        None
+    } else {
+        crate::material::read_library(library)?
+    };
+    crate::material::resolve_material(spec, std::path::Path::new("."), lib.as_ref())
+}
+
+/// Renders a strike of `source` ([`render_strike`]), loading what it names; also returns
+/// what was done on the way (the hit snapped to the surface). `progress` hears a modal solve.
+///
+/// # Errors
+/// Unreadable files, a failed solve, a hit off the model, parameters out of range.
+pub fn render_strike_from(
+    source: &StrikeSource,
+    p: &StrikeParams,
+    progress: resound_core::ProgressFn<'_>,
+) -> Result<(Strike, Vec<String>)> {
+    p.validate()?;
+    match source {
+        StrikeSource::Modes(path) => {
+            let modes = crate::files::load_modes(path)?;
+            Ok((render_strike(Struck::Modes(&modes), p)?, Vec::new()))
+        }
+        StrikeSource::Stats { path, seed } => {
+            let stats = crate::files::load_stats(path)?;
+            let struck = Struck::Stats {
+                stats: &stats,
+                seed: *seed,
+            };
+            Ok((render_strike(struck, p)?, Vec::new()))
+        }
+        StrikeSource::Object {
+            material,
+            library,
+            object,
+            object_params,
+            hit_m,
+        } => {
+            let material = load_material_spec(material, library.as_deref())?;
+            let model = crate::object::load_object(object, object_params, progress)?;
+            let (hit, note) = crate::object::snap_hit(&model, *hit_m)?;
+            let same_object =
+                material.was_estimated_on(&object.display().to_string(), hit.at.point);
+            let struck = Struck::Object {
+                material: &material,
+                model: &model,
+                hit: &hit,
+                same_object,
+            };
+            Ok((render_strike(struck, p)?, note.into_iter().collect()))
+        }
+    }
+}
+
+/// The modes `source` sounds with at `sample_rate_hz` (per unit impulse; statistics sampled
+/// with their seed), and what was done on the way: what a scrape or a custom excitation
+/// drives.
+///
+/// # Errors
+/// As [`render_strike_from`].
+pub fn source_modes(
+    source: &StrikeSource,
+    sample_rate_hz: f64,
+    progress: resound_core::ProgressFn<'_>,
+) -> Result<(Vec<DampedMode>, Vec<String>)> {
+    match source {
+        StrikeSource::Modes(path) => Ok((crate::files::load_modes(path)?, Vec::new())),
+        StrikeSource::Stats { path, seed } => {
+            Ok((crate::files::load_stats(path)?.sample(*seed)?, Vec::new()))
+        }
+        StrikeSource::Object {
+            material,
+            library,
+            object,
+            object_params,
+            hit_m,
+        } => {
+            let material = load_material_spec(material, library.as_deref())?;
+            let model = crate::object::load_object(object, object_params, progress)?;
+            let (hit, note) = crate::object::snap_hit(&model, *hit_m)?;
+            let modes = material.modes(
+                &model.eigenvalues,
+                &hit.gains,
+                model.gamma0(),
+                0.5 * sample_rate_hz,
+            );
+            Ok((modes, note.into_iter().collect()))
+        }
+    }
 }

@@ -275,8 +275,8 @@ fn estimate_both(
     };
     let a = analyze(clean, fs, clean_params).unwrap();
     let b = analyze(raw, fs, &AnalyzeParams::default()).unwrap();
-    let (_, ia) = estimate_material(&a, model, hit, &params, &|| {}).unwrap();
-    let (_, ib) = estimate_material(&b, model, hit, &params, &|| {}).unwrap();
+    let (_, ia) = estimate_material(&a, model, hit, &params, &|_| {}).unwrap();
+    let (_, ib) = estimate_material(&b, model, hit, &params, &|_| {}).unwrap();
     (ia.params, ib.params)
 }
 

@@ -141,7 +141,11 @@ fn mirrored_microphones_hear_each_mode_of_a_symmetric_bar_alike() {
     )
     .unwrap();
     assert!(
-        inside.info.warnings.iter().any(|w| w.contains("inside")),
+        inside
+            .info
+            .warnings
+            .iter()
+            .any(|w| w.message.contains("inside")),
         "{:?}",
         inside.info.warnings
     );
@@ -190,7 +194,7 @@ sound = false
         )
     };
     let dir = tempfile::tempdir().unwrap();
-    let quiet = |_: &str| {};
+    let quiet = |_: resound::Progress| {};
     let render = |radiation: bool| {
         let scene = resound::io::scene::parse_scene(&scene_text(radiation), "bar.toml").unwrap();
         let (bodies, params) = resound::scene::build_scene(
@@ -378,7 +382,7 @@ fn an_estimate_with_the_microphone_hears_the_modes_as_recorded() {
         allow_implausible: true,
         ..Default::default()
     };
-    let (_, plain) = estimate_material(&analysis, &model, &hit, &params, &|| {}).unwrap();
+    let (_, plain) = estimate_material(&analysis, &model, &hit, &params, &|_| {}).unwrap();
     let (_, heard) = estimate_material(
         &analysis,
         &model,
@@ -387,7 +391,7 @@ fn an_estimate_with_the_microphone_hears_the_modes_as_recorded() {
             mic_m: Some(mic),
             ..params.clone()
         },
-        &|| {},
+        &|_| {},
     )
     .unwrap();
     let (n_plain, sd_plain) = spread_db(&plain);

@@ -152,7 +152,7 @@ fn issue_15_stats_fitted_to_real_ceramic_strikes_put_the_transient_where_the_mod
         eprintln!("skipped: {} lacks the RealImpact strikes", dir.display());
         return;
     }
-    let stats = resound::files::fit_stats(&files, "ceramic", 15, Some(100.0), &|_, _| {}).unwrap();
+    let stats = resound::files::fit_stats(&files, "ceramic", 15, Some(100.0), &|_| {}).unwrap();
     let t = stats.transient.as_ref().unwrap();
     // Band levels are RMS re full scale: none above the recordings' peaks (they peak at −1.4
     // to 0 dBFS); the issue saw +99 to +149 dB.

@@ -543,11 +543,12 @@ impl ScenePhysics {
 
 /// Runs the scene offline: each physics step's cues go through the same queues and the same
 /// audio side ([`resound_synth::scene_audio::SceneAudio`]) a live run uses, and the step's samples are rendered right
-/// after. `progress` gets the simulated fraction now and then.
+/// after. `progress` hears [`Stage::Simulating`](resound_core::progress::Stage) and the
+/// simulated fraction now and then.
 pub fn simulate(
     bodies: &[BodySpec],
     params: &SceneParams,
-    progress: &dyn Fn(f64),
+    progress: resound_core::progress::ProgressFn<'_>,
 ) -> Result<SceneOutput, SceneError> {
     let (mut physics, mut sources) = ScenePhysics::new(bodies, params, 0)?;
     // With a second core the audio side renders step k while the physics computes step k + 1
@@ -583,7 +584,10 @@ pub fn simulate(
     let mut report = |step: usize| {
         let frac = (step + 1) as f64 / steps as f64;
         if frac - last_progress >= 0.01 {
-            progress(frac);
+            progress(resound_core::progress::Progress::fraction(
+                resound_core::progress::Stage::Simulating,
+                frac,
+            ));
             last_progress = frac;
         }
     };

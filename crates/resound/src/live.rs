@@ -1,26 +1,49 @@
-//! Live playback (`resound synth --play`, cargo feature `live`): the same resonator engine as
-//! offline rendering runs inside the audio callback (cpal), where it never allocates.
+//! Live playback on the default audio device (cargo feature `live`, cpal): the same resonator
+//! engine as offline rendering runs inside the audio callback, where it never allocates. Every
+//! front end that plays (the CLI's `--play`, a live scene) calls these.
 
-use anyhow::Result;
-use resound::strike::Strike;
+use crate::error::{Error, Result};
+use crate::strike::Strike;
+use serde::{Deserialize, Serialize};
+
+/// What a live scene did on the device.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LivePlayReport {
+    /// Device callbacks.
+    pub callbacks: u64,
+    /// Latency of the live path, samples (the device's own comes on top).
+    pub latency: usize,
+    /// Physics steps that came late.
+    pub late_steps: u64,
+    /// Cues dropped for a full queue.
+    pub dropped_cues: u64,
+    /// Voices stolen.
+    pub voices_stolen: u64,
+    /// Highest degradation level reached.
+    pub degradation: u64,
+}
+
+#[cfg(feature = "live")]
+fn device_error(e: impl std::fmt::Display) -> Error {
+    Error::Device(e.to_string())
+}
 
 /// Plays `strike` (its modes struck by its force through the engine, plus its added signal)
 /// at `gain` for `seconds` on the default output device at `sample_rate`.
 #[cfg(feature = "live")]
 pub fn play(strike: &Strike, gain: f32, sample_rate: u32, seconds: f64) -> Result<()> {
-    use anyhow::{anyhow, Context};
     use cpal::traits::{DeviceTrait, HostTrait, StreamTrait};
-    use resound::synth::{BankMode, Engine, EngineParams};
+    use resound_synth::{BankMode, Engine, EngineParams};
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Arc;
 
     let host = cpal::default_host();
     let device = host
         .default_output_device()
-        .context("no audio output device")?;
+        .ok_or_else(|| device_error("no audio output device"))?;
     let default = device
         .default_output_config()
-        .map_err(|e| anyhow!("the audio output device is not usable: {e}"))?;
+        .map_err(|e| device_error(format!("the audio output device is not usable: {e}")))?;
     let channels = usize::from(default.channels());
     let config = cpal::StreamConfig {
         channels: default.channels(),
@@ -77,14 +100,14 @@ pub fn play(strike: &Strike, gain: f32, sample_rate: u32, seconds: f64) -> Resul
             None,
         )
         .map_err(|e| {
-            anyhow!(
-                "cannot open the audio device at {sample_rate} Hz ({e}); try --sample-rate {}",
+            device_error(format!(
+                "cannot open the audio device at {sample_rate} Hz ({e}); it takes {} Hz",
                 default.sample_rate().0
-            )
+            ))
         })?;
     stream
         .play()
-        .map_err(|e| anyhow!("cannot start playback: {e}"))?;
+        .map_err(|e| device_error(format!("cannot start playback: {e}")))?;
     let total = (seconds * f64::from(sample_rate)) as usize;
     while position.load(Ordering::Relaxed) < total {
         std::thread::sleep(std::time::Duration::from_millis(20));
@@ -94,28 +117,28 @@ pub fn play(strike: &Strike, gain: f32, sample_rate: u32, seconds: f64) -> Resul
 
 /// Plays the scene file `path` live on the default output device: rapier on its own thread,
 /// the scene's audio side in the device callback (blocks of `block` samples asked for), the
-/// physical level times `gain_db`. Prints the live figures at the end.
+/// physical level times `gain_db`. `progress` hears the build.
 #[cfg(feature = "live")]
 pub fn play_scene(
     path: &std::path::Path,
-    params: &resound::scene::SceneRenderParams,
+    params: &crate::scene::SceneRenderParams,
     block: usize,
     gain_db: f64,
-) -> Result<()> {
-    use anyhow::{anyhow, Context};
+    progress: crate::ProgressFn<'_>,
+) -> Result<LivePlayReport> {
     use cpal::traits::{DeviceTrait, HostTrait, StreamTrait};
-    use resound::physics::live::{live_scene, run_physics, LiveParams};
-    use resound::synth::scene_audio::AudioStats;
+    use resound_physics::live::{live_scene, run_physics, LiveParams};
+    use resound_synth::scene_audio::AudioStats;
     use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
-    let (bodies, sp) = resound::scene::load_scene(path, params, &|m| eprintln!("{m}"))?;
+    let (bodies, sp) = crate::scene::load_scene(path, params, progress)?;
     let host = cpal::default_host();
     let device = host
         .default_output_device()
-        .context("no audio output device")?;
+        .ok_or_else(|| device_error("no audio output device"))?;
     let default = device
         .default_output_config()
-        .map_err(|e| anyhow!("the audio output device is not usable: {e}"))?;
+        .map_err(|e| device_error(format!("the audio output device is not usable: {e}")))?;
     let channels = usize::from(default.channels());
     let sample_rate = sp.sample_rate_hz as u32;
     // A callback may ask for more than `block` frames; the driver renders it in pieces.
@@ -148,16 +171,18 @@ pub fn play_scene(
             None,
         )
         .map_err(|e| {
-            anyhow!(
-                "cannot open the audio device at {sample_rate} Hz with {block}-sample blocks ({e}); the scene's sample_rate must be one the device takes ({} Hz), or try another --block",
+            device_error(format!(
+                "cannot open the audio device at {sample_rate} Hz with {block}-sample blocks \
+                 ({e}); the scene's sample_rate must be one the device takes ({} Hz), or \
+                 another block size",
                 default.sample_rate().0
-            )
+            ))
         })?;
     let frontier = AtomicU64::new(0);
     let stop = AtomicBool::new(false);
     stream
         .play()
-        .map_err(|e| anyhow!("cannot start playback: {e}"))?;
+        .map_err(|e| device_error(format!("cannot start playback: {e}")))?;
     std::thread::scope(|s| {
         s.spawn(|| run_physics(&mut physics, &mut tx, block, &frontier, &stop));
         // A device that stops calling back must not hang us: the scene's length plus 5 s.
@@ -169,35 +194,30 @@ pub fn play_scene(
         stop.store(true, Ordering::Relaxed);
     });
     drop(stream);
-    eprintln!(
-        "played {} live: {} callbacks, latency {latency} samples + the device's, {} late steps, {} dropped cues, {} voices stolen, degradation level {}",
-        path.display(),
-        AudioStats::get(&stats.callbacks),
-        AudioStats::get(&stats.late_steps),
-        AudioStats::get(&stats.dropped),
-        AudioStats::get(&stats.steals),
-        AudioStats::get(&stats.degradation),
-    );
-    Ok(())
+    Ok(LivePlayReport {
+        callbacks: AudioStats::get(&stats.callbacks),
+        latency,
+        late_steps: AudioStats::get(&stats.late_steps),
+        dropped_cues: AudioStats::get(&stats.dropped),
+        voices_stolen: AudioStats::get(&stats.steals),
+        degradation: AudioStats::get(&stats.degradation),
+    })
 }
 
 /// Without the `live` feature there is no audio device support.
 #[cfg(not(feature = "live"))]
 pub fn play_scene(
     _path: &std::path::Path,
-    _params: &resound::scene::SceneRenderParams,
+    _params: &crate::scene::SceneRenderParams,
     _block: usize,
     _gain_db: f64,
-) -> Result<()> {
-    anyhow::bail!(
-        "this resound was built without live audio; rebuild with `cargo build --release --features live` (needs ALSA headers: libasound2-dev), or use --simulate-device"
-    )
+    _progress: crate::ProgressFn<'_>,
+) -> Result<LivePlayReport> {
+    Err(Error::NoLiveAudio)
 }
 
 /// Without the `live` feature there is no audio device support.
 #[cfg(not(feature = "live"))]
 pub fn play(_strike: &Strike, _gain: f32, _sample_rate: u32, _seconds: f64) -> Result<()> {
-    anyhow::bail!(
-        "this resound was built without live audio; rebuild with `cargo build --release --features live` (needs ALSA headers: libasound2-dev)"
-    )
+    Err(Error::NoLiveAudio)
 }

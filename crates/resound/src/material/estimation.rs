@@ -1,235 +1,14 @@
-//! Materials: finding one (file, library, preset) and estimating one from a recording (Ren §5,
-//! with the §6.1 residual).
+//! Estimating a material from recordings of a known object (Ren §5, with the §6.1 residual).
 
 use crate::error::{invalid, Error, Result};
-use resound_core::{DampedMode, Hit, Material, ModalModel, Provenance, SoundMaterial};
+use resound_core::progress::{Progress, ProgressFn, Stage, Warning, WarningKind};
+use resound_core::{DampedMode, Hit, ModalModel, Provenance, SoundMaterial};
 use resound_estimate::estimate::{starting_points_within, Objective, MAX_STARTS};
 use resound_estimate::{estimate, EstimateParams, ModalSide, RayleighParams};
-use resound_io::library::{default_library_path, read_material, Library};
 use resound_signal::Analysis;
 use serde::{Deserialize, Serialize};
-use std::path::{Path, PathBuf};
-
-/// The library at `path`, or the default one ($RESOUND_LIBRARY, else
-/// ~/.local/share/resound/materials.sqlite).
-///
-/// # Errors
-/// No home directory for the default; the library cannot be opened.
-pub fn open_library(path: Option<&Path>) -> Result<Library> {
-    let path: PathBuf = match path {
-        Some(p) => p.to_path_buf(),
-        None => default_library_path().ok_or_else(|| {
-            invalid("no home directory for the default library; name a library file")
-        })?,
-    };
-    Library::open(&path).map_err(|e| {
-        Error::from(e).context(format!("opening the material library {}", path.display()))
-    })
-}
-
-/// Refuses a `name` the library at `path` (or the default one) already holds, unless
-/// `replace`: the check before a long estimate whose result will be stored under it.
-///
-/// # Errors
-/// [`Error::Exists`]; an unreadable library.
-pub fn check_name_free(path: Option<&Path>, name: &str, replace: bool) -> Result<()> {
-    if replace {
-        return Ok(());
-    }
-    match read_library(path)? {
-        Some(lib) if lib.get(name)?.is_some() => Err(Error::Exists(name.to_string())),
-        _ => Ok(()),
-    }
-}
-
-/// Stores `material` in the library at `path` (or the default one, created if need be) under
-/// its name; an existing entry of that name is replaced only with `replace` — never silently.
-///
-/// # Errors
-/// [`Error::Exists`]; a library that cannot be opened or written.
-pub fn store_material(path: Option<&Path>, material: &SoundMaterial, replace: bool) -> Result<()> {
-    let mut lib = open_library(path)?;
-    if !replace && lib.get(&material.name)?.is_some() {
-        return Err(Error::Exists(material.name.clone()));
-    }
-    Ok(lib.put(material)?)
-}
-
-/// The library at `path` (or the default one) for reading: `None` when it does not exist yet.
-/// Never creates or changes a file.
-///
-/// # Errors
-/// A file that is not a library; no home directory for the default.
-pub fn read_library(path: Option<&Path>) -> Result<Option<Library>> {
-    let path: PathBuf = match path {
-        Some(p) => p.to_path_buf(),
-        None => default_library_path().ok_or_else(|| {
-            invalid("no home directory for the default library; name a library file")
-        })?,
-    };
-    Ok(Library::open_read_only(&path)?)
-}
-
-/// A library entry by name, else the built-in of that name (with or without a library); a
-/// missing name lists the known ones. A library entry holding Ren's Table I in mesh units (as
-/// earlier versions seeded) is an error that says how to replace it.
-///
-/// # Errors
-/// Unknown names, legacy entries, unreadable libraries.
-pub fn library_material(lib: Option<&Library>, name: &str) -> Result<SoundMaterial> {
-    if let Some(l) = lib {
-        if let Some(m) = l.get(name)? {
-            return not_legacy(m, l.path());
-        }
-    }
-    SoundMaterial::builtin_named(name).ok_or_else(|| {
-        let mut known: Vec<String> = match lib {
-            Some(l) => l.names().unwrap_or_default(),
-            None => Vec::new(),
-        };
-        known.extend(SoundMaterial::builtin().into_iter().map(|m| m.name));
-        known.sort();
-        known.dedup();
-        invalid(format!(
-            "no material {name:?} in the library (known: {})",
-            known.join(", ")
-        ))
-    })
-}
-
-/// Where a listed material comes from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Origin {
-    /// Built in, not (or not differently) stored in the library.
-    Builtin,
-    /// Stored in the library without provenance (imported, or a seeded built-in).
-    Library,
-    /// Estimated from a recording.
-    Estimated,
-    /// Ren's Table I in mesh units, seeded by an earlier version: remove it.
-    LegacyTable1,
-}
-
-/// Every material a name can reach: the library's entries and the built-ins it does not hold,
-/// sorted by name.
-///
-/// # Errors
-/// Unreadable libraries.
-pub fn list_materials(lib: Option<&Library>) -> Result<Vec<(SoundMaterial, Origin)>> {
-    let mut out = Vec::new();
-    if let Some(l) = lib {
-        for n in l.names()? {
-            let Some(m) = l.get(&n)? else { continue };
-            let origin = if m.is_legacy_table_1() {
-                Origin::LegacyTable1
-            } else if m.provenance.is_some() {
-                Origin::Estimated
-            } else if SoundMaterial::builtin_named(&n).as_ref() == Some(&m) {
-                Origin::Builtin
-            } else {
-                Origin::Library
-            };
-            out.push((m, origin));
-        }
-    }
-    for b in SoundMaterial::builtin() {
-        if !out.iter().any(|(m, _)| m.name == b.name) {
-            out.push((b, Origin::Builtin));
-        }
-    }
-    out.sort_by(|a, b| a.0.name.cmp(&b.0.name));
-    Ok(out)
-}
-
-fn not_legacy(m: SoundMaterial, library: &Path) -> Result<SoundMaterial> {
-    if !m.is_legacy_table_1() {
-        return Ok(m);
-    }
-    Err(invalid(format!(
-        "library entry {:?} in {} holds Ren 2013 Table I as printed, in his meshes' units \
-         (γ = {:.4e} m²/s², σ = {:.4e}): on a mesh in metres it renders several times too low \
-         in pitch and near −150 dBFS. Earlier versions seeded libraries with it. Remove it \
-         (`resound materials remove {}`) and the SI built-in of that name is used",
-        m.name,
-        library.display(),
-        m.gamma,
-        m.sigma,
-        m.name
-    )))
-}
-
-/// The Rayleigh α, β of the built-in (Ren Table I) material that matches an elastic preset.
-fn table_damping(preset: &str) -> Option<(f64, f64)> {
-    let ren = match preset {
-        "steel" | "aluminium" => "metal",
-        "ceramic" => "porcelain",
-        "glass" => "glass",
-        "wood" => "wood",
-        "plastic" => "plastic",
-        _ => return None,
-    };
-    SoundMaterial::builtin_named(ren).map(|m| (m.alpha, m.beta))
-}
-
-/// `preset:NAME` as a sound material: an elastic preset's γ = E/ρ with the Rayleigh damping of
-/// the matching Ren 2013 Table I material (steel and aluminium → metal, ceramic → porcelain),
-/// σ = [`resound_core::DEFAULT_SIGMA`].
-pub fn preset_sound_material(name: &str) -> Option<SoundMaterial> {
-    let m = Material::preset(name).ok()?;
-    let (alpha, beta) = table_damping(name)?;
-    Some(SoundMaterial::rayleigh(
-        &format!("preset:{name}"),
-        alpha,
-        beta,
-        m.stiffness_density_ratio(),
-        resound_core::DEFAULT_SIGMA,
-    ))
-}
-
-/// Resolves a material reference: `preset:NAME`, a material file (relative to `base_dir`), a
-/// library name, a built-in name ([`SoundMaterial::builtin`]) or a plain preset name. The
-/// result is validated.
-///
-/// # Errors
-/// Unknown references, unreadable files, invalid values, legacy library entries.
-pub fn resolve_material(
-    spec: &str,
-    base_dir: &Path,
-    library: Option<&Library>,
-) -> Result<SoundMaterial> {
-    let m = if let Some(p) = spec.strip_prefix("preset:") {
-        preset_sound_material(p).ok_or_else(|| {
-            invalid(format!(
-                "unknown preset {p:?} (steel, aluminium, glass, ceramic, wood, plastic)"
-            ))
-        })?
-    } else {
-        let path = base_dir.join(spec);
-        if spec.to_ascii_lowercase().ends_with(".json") || path.is_file() {
-            read_material(&path)?
-        } else {
-            let entry = match library {
-                Some(l) => l.get(spec)?.map(|m| not_legacy(m, l.path())).transpose()?,
-                None => None,
-            };
-            match entry
-                .or_else(|| SoundMaterial::builtin_named(spec))
-                .or_else(|| preset_sound_material(spec))
-            {
-                Some(m) => m,
-                None => {
-                    return Err(invalid(format!(
-                        "no material {spec:?} in the library, no such file, and neither a \
-                         built-in (wood, plastic, metal, glass, porcelain) nor a preset"
-                    )))
-                }
-            }
-        }
-    };
-    m.validate().map_err(invalid)?;
-    Ok(m)
-}
+#[cfg(feature = "plot")]
+use std::path::Path;
 
 /// Settings of [`estimate_material`].
 #[derive(Clone, Debug)]
@@ -305,7 +84,7 @@ pub struct EstimateInfo {
     /// How sure the estimate is: paired modes, loudness share, α/β/γ standard errors.
     pub fit: resound_estimate::report::FitReport,
     /// Things the user should know (the object's lowest mode above every recorded one, …).
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
     /// Each recording's part when several were combined (empty for one).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub takes: Vec<TakeReport>,
@@ -341,7 +120,7 @@ pub fn heard_side(
     transfer: &resound_core::AcousticTransfer,
     mic: [f64; 3],
     gamma: f64,
-) -> Result<(ModalSide, Vec<String>)> {
+) -> Result<(ModalSide, Vec<Warning>)> {
     let freqs = crate::radiation::freqs_in(model, gamma);
     let (f, warnings) = crate::radiation::mic_factors(transfer, &freqs, mic)?;
     let mut side = modal_side(model, hit);
@@ -401,8 +180,8 @@ pub fn modal_side(model: &ModalModel, hit: &Hit) -> ModalSide {
     }
 }
 
-/// How many starting points [`estimate_material`] will run (for a progress bar).
-pub fn start_count(
+/// How many starting points [`estimate_material`] will run.
+fn start_count(
     model: &ModalModel,
     hit: &Hit,
     analysis: &Analysis,
@@ -415,8 +194,9 @@ pub fn start_count(
         .min(MAX_STARTS)
 }
 
-/// How many progress ticks [`estimate_material_from`] makes for `takes`.
-pub fn take_tick_count(takes: &[TakeInput<'_>], params: &EstimateParams) -> usize {
+/// How many ticks the estimators make for `takes` (one per start, or one per take and the
+/// joint fit).
+fn take_tick_count(takes: &[TakeInput<'_>], params: &EstimateParams) -> usize {
     match takes {
         [t] => start_count(t.model, t.hit, t.analysis, params),
         _ => takes.len() + 1,
@@ -425,7 +205,7 @@ pub fn take_tick_count(takes: &[TakeInput<'_>], params: &EstimateParams) -> usiz
 
 /// Estimates the material of the object `model`, struck at `hit`, from `analysis` (its modes
 /// and the very segment they were fitted to): α, β, γ, σ, then the §6.1 residual against the
-/// estimated modes. `tick` is called after each starting point.
+/// estimated modes. `progress` hears [`Stage::Estimating`] and its fraction.
 ///
 /// # Errors
 /// No modes, a failed estimation, and a result that is not credible (a non-finite metric or
@@ -435,7 +215,7 @@ pub fn estimate_material(
     model: &ModalModel,
     hit: &Hit,
     params: &EstimateMaterialParams,
-    tick: &(dyn Fn() + Sync),
+    progress: ProgressFn<'_>,
 ) -> Result<(SoundMaterial, EstimateInfo)> {
     let take = TakeInput {
         analysis,
@@ -443,18 +223,43 @@ pub fn estimate_material(
         hit,
         label: &params.recording_name,
     };
-    estimate_material_from(&[take], params, tick)
+    estimate_material_from(&[take], params, progress)
 }
 
 /// [`estimate_material`] from several recordings of one material — strikes of one file,
 /// microphones of one strike, other objects of the material: α, β, γ are shared, each take
 /// keeps its own σ ([`resound_estimate::joint`]). The material's σ, residual and provenance
-/// features are the first take's. `tick` is called after each take's own estimate and after
-/// the joint fit (after each starting point for one take).
+/// features are the first take's. `progress` hears [`Stage::Estimating`]: the fraction of
+/// starting points (one take) or of takes and the joint fit done, and every warning.
 ///
 /// # Errors
 /// As [`estimate_material`], for any take; no takes.
 pub fn estimate_material_from(
+    takes: &[TakeInput<'_>],
+    params: &EstimateMaterialParams,
+    progress: ProgressFn<'_>,
+) -> Result<(SoundMaterial, EstimateInfo)> {
+    let ticks = take_tick_count(takes, &params.estimate).max(1);
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    progress(Progress::fraction(Stage::Estimating, 0.0));
+    let tick = || {
+        let k = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        // With a microphone the fit runs again as γ settles: the bar restarts per pass.
+        let k = (k - 1) % ticks + 1;
+        progress(Progress::fraction(
+            Stage::Estimating,
+            k as f64 / ticks as f64,
+        ));
+    };
+    let tick: &(dyn Fn() + Sync) = &tick;
+    let result = estimate_takes(takes, params, tick)?;
+    for w in &result.1.warnings {
+        progress(Progress::Warning(w.clone()));
+    }
+    Ok(result)
+}
+
+fn estimate_takes(
     takes: &[TakeInput<'_>],
     params: &EstimateMaterialParams,
     tick: &(dyn Fn() + Sync),
@@ -508,7 +313,7 @@ pub fn estimate_material_from(
     };
     let mut mic_warnings = Vec::new();
     // The sides heard at the microphone when γ puts the modes at `gamma` (plain sides without).
-    let sides_at = |gamma: f64, warnings: &mut Vec<String>| -> Result<Vec<ModalSide>> {
+    let sides_at = |gamma: f64, warnings: &mut Vec<Warning>| -> Result<Vec<ModalSide>> {
         takes
             .iter()
             .map(|t| match (params.mic_m, transfer_for(t.model)) {
@@ -572,9 +377,12 @@ pub fn estimate_material_from(
         let moved_octaves = 0.5 * (est.params.gamma / gamma).log2().abs();
         if moved_octaves < MIC_SETTLE_OCTAVES || passes >= MIC_PASSES {
             if moved_octaves >= MIC_SETTLE_OCTAVES {
-                mic_warnings.push(format!(
+                mic_warnings.push(Warning::new(
+                    WarningKind::Model,
+                    format!(
                     "the radiation factors did not settle in {passes} estimates: the last moved \
                      the modes by {moved_octaves:.3} octaves"
+                ),
                 ));
             }
             // The sides the reports use: heard where the final γ puts the modes.
@@ -596,22 +404,25 @@ pub fn estimate_material_from(
     let p = est.params;
     let mut implausible = Vec::new();
     if p.beta <= BETA_FLOOR_S {
-        implausible.push(format!(
+        implausible.push(Warning::new(WarningKind::Implausible, format!(
             "β = {:.1e} s sits at the optimizer's floor: the recording's decay rates do not grow with frequency as stiffness damping does (noise before the strike, a wrong object, or a wrong hit point)",
             p.beta
-        ));
+        )));
     }
     if !(GAMMA_RANGE_M2_S2.0..=GAMMA_RANGE_M2_S2.1).contains(&p.gamma) {
-        implausible.push(format!(
-            "γ = E/ρ = {:.3e} m²/s² is outside the range of solids ({:.0e}–{:.0e}): the object's modes cannot be matched to the recording's (check its size, --scale and the hit)",
+        implausible.push(Warning::new(WarningKind::Implausible, format!(
+            "γ = E/ρ = {:.3e} m²/s² is outside the range of solids ({:.0e}–{:.0e}): the object's modes cannot be matched to the recording's (check its size, its unit and the hit)",
             p.gamma, GAMMA_RANGE_M2_S2.0, GAMMA_RANGE_M2_S2.1
-        ));
+        )));
     }
     if !implausible.is_empty() && !params.allow_implausible {
-        return Err(invalid(format!(
-            "the estimate is not credible: {} (keep it anyway with --allow-implausible)",
-            implausible.join("; ")
-        )));
+        return Err(Error::Implausible(
+            implausible
+                .iter()
+                .map(|w| w.message.as_str())
+                .collect::<Vec<_>>()
+                .join("; "),
+        ));
     }
     let estimated = resound_estimate::forward_modes(
         &side.eigenvalues0,
@@ -630,10 +441,10 @@ pub fn estimate_material_from(
     warnings.extend(mic_warnings);
     if let Some(j) = &joint {
         for &k in &j.left_out {
-            warnings.push(format!(
+            warnings.push(Warning::new(WarningKind::Input, format!(
                 "{} was left out: its loudness image holds nothing above its floor (too short or too quiet)",
                 takes[k].label
-            ));
+            )));
         }
     }
     let sigmas: Vec<f64> = joint
@@ -705,36 +516,37 @@ pub fn estimate_material_from(
                 gamma_rel_sd: rel_sd(&|p| p.gamma),
             };
             if spread.gamma_rel_sd > 0.1 {
-                warnings.push(format!(
+                warnings.push(Warning::new(WarningKind::Implausible, format!(
                     "the recordings' own estimates of γ differ by {:.0} % (relative SD): they may not be of one material, or of the objects and hits given",
                     100.0 * spread.gamma_rel_sd
-                ));
+                )));
             }
             (reports, Some(spread))
         }
     };
     if p.alpha < 1e-6 {
-        warnings.push(format!(
+        warnings.push(Warning::new(WarningKind::Implausible, format!(
             "α = {:.1e} 1/s sits at its bound (0): no mass damping is seen; α is not determined by this recording",
             p.alpha
-        ));
+        )));
     }
     if fit.paired_modes < 2 {
-        warnings.push(format!(
+        warnings.push(Warning::new(WarningKind::Implausible, format!(
             "only {} recorded mode(s) lie within 3 % of an estimated one: γ rests on one mode and α, β are not determined",
             fit.paired_modes
-        ));
+        )));
     } else if fit.loudness_share < 0.25 {
-        warnings.push(format!(
+        warnings.push(Warning::new(WarningKind::Implausible, format!(
             "the paired modes carry only {:.0} % of the recording's loudness: most of what is heard is not explained by this object",
             100.0 * fit.loudness_share
-        ));
+        )));
     }
     let band_top = analysis.modes.iter().map(|m| m.freq_hz).fold(0.0, f64::max);
     let lowest = model.freq_hz(0) * (p.gamma / side.gamma0).sqrt();
     if lowest > band_top {
-        warnings.push(format!(
-            "the object's lowest mode ({lowest:.0} Hz) lies above every recorded mode"
+        warnings.push(Warning::new(
+            WarningKind::Implausible,
+            format!("the object's lowest mode ({lowest:.0} Hz) lies above every recorded mode"),
         ));
     }
     let material = SoundMaterial {
@@ -823,4 +635,152 @@ pub fn estimate_plot(
         },
     )?;
     Ok(())
+}
+
+/// What [`estimate_files`] estimates from: recordings of an object in a file, struck at a
+/// point — the inputs of `resound estimate`, of the studio's material step and of Python's
+/// `estimate_material`.
+#[derive(Clone, Debug)]
+pub struct EstimateFiles {
+    /// Recordings (several: microphones or takes of one material).
+    pub recordings: Vec<std::path::PathBuf>,
+    /// Channel and resampling of each recording.
+    pub recording: crate::recording::RecordingParams,
+    /// The analysis (high-pass, which strike).
+    pub analyze: resound_signal::AnalyzeParams,
+    /// Every strike and/or every channel as a take of its own.
+    pub select: crate::recording::TakeSelection,
+    /// The object: a mesh or a saved modal model.
+    pub object: std::path::PathBuf,
+    /// How a mesh is solved (scale, modes, reference material).
+    pub object_params: crate::object::ObjectParams,
+    /// Hit point, m (model coordinates; snapped to the surface).
+    pub hit_m: [f64; 3],
+    /// The estimate's settings (name, residual, microphone, …). `recording_name` and
+    /// `object_name` are filled in from the files.
+    pub params: EstimateMaterialParams,
+}
+
+/// What [`estimate_files`] found: the material, its report, and what it was fitted to (for a
+/// picture: [`estimate_plot`]).
+#[derive(Debug)]
+pub struct EstimateOutcome {
+    /// The material.
+    pub material: SoundMaterial,
+    /// The report (`estimate --json`).
+    pub info: EstimateInfo,
+    /// The analysed takes, first the one the report's features are from.
+    pub takes: Vec<crate::recording::AnalysedTake>,
+    /// The object's model (with its acoustic transfer when a microphone was given).
+    pub model: ModalModel,
+    /// The hit on the model's surface.
+    pub hit: Hit,
+    /// What was done on the way (takes skipped, the hit snapped, a transfer fitted).
+    pub notes: Vec<String>,
+}
+
+/// Analyses `job`'s recordings, loads or solves the object and estimates the material
+/// ([`estimate_on_model`]). `progress` hears every stage: the modal solve, the acoustic
+/// transfer (with a microphone and a model without one) and the estimate.
+///
+/// # Errors
+/// As the steps: unreadable files, no modes in any take, a hit off the model, a failed or
+/// implausible estimate.
+pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<EstimateOutcome> {
+    let mut notes = Vec::new();
+    let mut analysed = Vec::new();
+    for path in &job.recordings {
+        let (takes, skipped) =
+            crate::recording::analyze_takes(path, &job.recording, &job.analyze, job.select)?;
+        notes.extend(skipped.iter().map(|s| format!("skipped {s}")));
+        analysed.extend(takes);
+    }
+    let model = crate::object::load_object(&job.object, &job.object_params, progress)?;
+    let params = EstimateMaterialParams {
+        object_name: job.object.display().to_string(),
+        ..job.params.clone()
+    };
+    let mut out = estimate_on_model(analysed, model, job.hit_m, &params, progress)?;
+    notes.append(&mut out.notes);
+    out.notes = notes;
+    Ok(out)
+}
+
+/// Estimates the material of `model`, struck near `hit_m` (snapped to the surface), from
+/// analysed takes ([`estimate_material_from`]): fits the model's acoustic transfer first when
+/// a microphone is given and the model has none. The report's warnings hold the takes'
+/// analysis warnings too; `params.recording_name` is the takes' labels.
+///
+/// # Errors
+/// No takes, a hit off the model, a failed or implausible estimate.
+pub fn estimate_on_model(
+    takes: Vec<crate::recording::AnalysedTake>,
+    mut model: ModalModel,
+    hit_m: [f64; 3],
+    params: &EstimateMaterialParams,
+    progress: ProgressFn<'_>,
+) -> Result<EstimateOutcome> {
+    if takes.is_empty() {
+        return Err(invalid("no recordings to estimate from"));
+    }
+    let mut notes = Vec::new();
+    let mut warnings: Vec<Warning> = takes
+        .iter()
+        .flat_map(|t| t.analysis.warnings.iter().cloned())
+        .collect();
+    if params.mic_m.is_some() && model.transfer.is_none() {
+        progress(Progress::begin(Stage::Transfer));
+        let t0 = std::time::Instant::now();
+        let info = crate::radiation::add_transfer(
+            &mut model,
+            &resound_modal::radiation::TransferParams::default(),
+        )?;
+        notes.push(format!(
+            "fitted the acoustic transfer of {} modes in {:.1} s (a model saved with its \
+             transfer skips this)",
+            model.n_modes(),
+            t0.elapsed().as_secs_f64()
+        ));
+        if info.poorly_fitted > 0 {
+            warnings.push(Warning::new(
+                WarningKind::PoorTransfer,
+                format!(
+                    "the acoustic transfer fits {} modes poorly (misfit > {})",
+                    info.poorly_fitted,
+                    resound_core::limits::POOR_TRANSFER_MISFIT
+                ),
+            ));
+        }
+    }
+    let (hit, note) = crate::object::snap_hit(&model, hit_m)?;
+    notes.extend(note);
+    let params = EstimateMaterialParams {
+        recording_name: takes
+            .iter()
+            .map(|t| t.label.as_str())
+            .collect::<Vec<_>>()
+            .join("; "),
+        ..params.clone()
+    };
+    let inputs: Vec<TakeInput<'_>> = takes
+        .iter()
+        .map(|t| TakeInput {
+            analysis: &t.analysis,
+            model: &model,
+            hit: &hit,
+            label: &t.label,
+        })
+        .collect();
+    let (material, mut info) = estimate_material_from(&inputs, &params, progress)?;
+    drop(inputs);
+    warnings.append(&mut info.warnings);
+    info.warnings = warnings;
+    Ok(EstimateOutcome {
+        material,
+        info,
+        takes,
+        model,
+        hit,
+        notes,
+    })
 }

@@ -1,0 +1,232 @@
+//! Materials: finding one (file, library, preset) here, and estimating one from a recording
+//! (Ren §5, with the §6.1 residual) in [`estimate_material`] and its kin.
+
+mod estimation;
+pub use estimation::*;
+
+use crate::error::{invalid, Error, Result};
+use resound_core::{Material, SoundMaterial};
+use resound_io::library::{default_library_path, read_material, Library};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// The library at `path`, or the default one ($RESOUND_LIBRARY, else
+/// ~/.local/share/resound/materials.sqlite).
+///
+/// # Errors
+/// No home directory for the default; the library cannot be opened.
+pub fn open_library(path: Option<&Path>) -> Result<Library> {
+    let path: PathBuf = match path {
+        Some(p) => p.to_path_buf(),
+        None => default_library_path().ok_or_else(|| {
+            invalid("no home directory for the default library; name a library file")
+        })?,
+    };
+    Library::open(&path).map_err(|e| {
+        Error::from(e).context(format!("opening the material library {}", path.display()))
+    })
+}
+
+/// Refuses a `name` the library at `path` (or the default one) already holds, unless
+/// `replace`: the check before a long estimate whose result will be stored under it.
+///
+/// # Errors
+/// [`Error::Exists`]; an unreadable library.
+pub fn check_name_free(path: Option<&Path>, name: &str, replace: bool) -> Result<()> {
+    if replace {
+        return Ok(());
+    }
+    match read_library(path)? {
+        Some(lib) if lib.get(name)?.is_some() => Err(Error::Exists(name.to_string())),
+        _ => Ok(()),
+    }
+}
+
+/// Stores `material` in the library at `path` (or the default one, created if need be) under
+/// its name; an existing entry of that name is replaced only with `replace` — never silently.
+///
+/// # Errors
+/// [`Error::Exists`]; a library that cannot be opened or written.
+pub fn store_material(path: Option<&Path>, material: &SoundMaterial, replace: bool) -> Result<()> {
+    let mut lib = open_library(path)?;
+    if !replace && lib.get(&material.name)?.is_some() {
+        return Err(Error::Exists(material.name.clone()));
+    }
+    Ok(lib.put(material)?)
+}
+
+/// The library at `path` (or the default one) for reading: `None` when it does not exist yet.
+/// Never creates or changes a file.
+///
+/// # Errors
+/// A file that is not a library; no home directory for the default.
+pub fn read_library(path: Option<&Path>) -> Result<Option<Library>> {
+    let path: PathBuf = match path {
+        Some(p) => p.to_path_buf(),
+        None => default_library_path().ok_or_else(|| {
+            invalid("no home directory for the default library; name a library file")
+        })?,
+    };
+    Ok(Library::open_read_only(&path)?)
+}
+
+/// A library entry by name, else the built-in of that name (with or without a library); a
+/// missing name lists the known ones. A library entry holding Ren's Table I in mesh units (as
+/// earlier versions seeded) is an error that says how to replace it.
+///
+/// # Errors
+/// Unknown names, legacy entries, unreadable libraries.
+pub fn library_material(lib: Option<&Library>, name: &str) -> Result<SoundMaterial> {
+    if let Some(l) = lib {
+        if let Some(m) = l.get(name)? {
+            return not_legacy(m, l.path());
+        }
+    }
+    SoundMaterial::builtin_named(name).ok_or_else(|| {
+        let mut known: Vec<String> = match lib {
+            Some(l) => l.names().unwrap_or_default(),
+            None => Vec::new(),
+        };
+        known.extend(SoundMaterial::builtin().into_iter().map(|m| m.name));
+        known.sort();
+        known.dedup();
+        invalid(format!(
+            "no material {name:?} in the library (known: {})",
+            known.join(", ")
+        ))
+    })
+}
+
+/// Where a listed material comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Origin {
+    /// Built in, not (or not differently) stored in the library.
+    Builtin,
+    /// Stored in the library without provenance (imported, or a seeded built-in).
+    Library,
+    /// Estimated from a recording.
+    Estimated,
+    /// Ren's Table I in mesh units, seeded by an earlier version: remove it.
+    LegacyTable1,
+}
+
+/// Every material a name can reach: the library's entries and the built-ins it does not hold,
+/// sorted by name.
+///
+/// # Errors
+/// Unreadable libraries.
+pub fn list_materials(lib: Option<&Library>) -> Result<Vec<(SoundMaterial, Origin)>> {
+    let mut out = Vec::new();
+    if let Some(l) = lib {
+        for n in l.names()? {
+            let Some(m) = l.get(&n)? else { continue };
+            let origin = if m.is_legacy_table_1() {
+                Origin::LegacyTable1
+            } else if m.provenance.is_some() {
+                Origin::Estimated
+            } else if SoundMaterial::builtin_named(&n).as_ref() == Some(&m) {
+                Origin::Builtin
+            } else {
+                Origin::Library
+            };
+            out.push((m, origin));
+        }
+    }
+    for b in SoundMaterial::builtin() {
+        if !out.iter().any(|(m, _)| m.name == b.name) {
+            out.push((b, Origin::Builtin));
+        }
+    }
+    out.sort_by(|a, b| a.0.name.cmp(&b.0.name));
+    Ok(out)
+}
+
+fn not_legacy(m: SoundMaterial, library: &Path) -> Result<SoundMaterial> {
+    if !m.is_legacy_table_1() {
+        return Ok(m);
+    }
+    Err(invalid(format!(
+        "library entry {:?} in {} holds Ren 2013 Table I as printed, in his meshes' units \
+         (γ = {:.4e} m²/s², σ = {:.4e}): on a mesh in metres it renders several times too low \
+         in pitch and near −150 dBFS. Earlier versions seeded libraries with it. Remove it \
+         (`resound materials remove {}`) and the SI built-in of that name is used",
+        m.name,
+        library.display(),
+        m.gamma,
+        m.sigma,
+        m.name
+    )))
+}
+
+/// The Rayleigh α, β of the built-in (Ren Table I) material that matches an elastic preset.
+fn table_damping(preset: &str) -> Option<(f64, f64)> {
+    let ren = match preset {
+        "steel" | "aluminium" => "metal",
+        "ceramic" => "porcelain",
+        "glass" => "glass",
+        "wood" => "wood",
+        "plastic" => "plastic",
+        _ => return None,
+    };
+    SoundMaterial::builtin_named(ren).map(|m| (m.alpha, m.beta))
+}
+
+/// `preset:NAME` as a sound material: an elastic preset's γ = E/ρ with the Rayleigh damping of
+/// the matching Ren 2013 Table I material (steel and aluminium → metal, ceramic → porcelain),
+/// σ = [`resound_core::DEFAULT_SIGMA`].
+pub fn preset_sound_material(name: &str) -> Option<SoundMaterial> {
+    let m = Material::preset(name).ok()?;
+    let (alpha, beta) = table_damping(name)?;
+    Some(SoundMaterial::rayleigh(
+        &format!("preset:{name}"),
+        alpha,
+        beta,
+        m.stiffness_density_ratio(),
+        resound_core::DEFAULT_SIGMA,
+    ))
+}
+
+/// Resolves a material reference: `preset:NAME`, a material file (relative to `base_dir`), a
+/// library name, a built-in name ([`SoundMaterial::builtin`]) or a plain preset name. The
+/// result is validated.
+///
+/// # Errors
+/// Unknown references, unreadable files, invalid values, legacy library entries.
+pub fn resolve_material(
+    spec: &str,
+    base_dir: &Path,
+    library: Option<&Library>,
+) -> Result<SoundMaterial> {
+    let m = if let Some(p) = spec.strip_prefix("preset:") {
+        preset_sound_material(p).ok_or_else(|| {
+            invalid(format!(
+                "unknown preset {p:?} (steel, aluminium, glass, ceramic, wood, plastic)"
+            ))
+        })?
+    } else {
+        let path = base_dir.join(spec);
+        if spec.to_ascii_lowercase().ends_with(".json") || path.is_file() {
+            read_material(&path)?
+        } else {
+            let entry = match library {
+                Some(l) => l.get(spec)?.map(|m| not_legacy(m, l.path())).transpose()?,
+                None => None,
+            };
+            match entry
+                .or_else(|| SoundMaterial::builtin_named(spec))
+                .or_else(|| preset_sound_material(spec))
+            {
+                Some(m) => m,
+                None => {
+                    return Err(invalid(format!(
+                        "no material {spec:?} in the library, no such file, and neither a \
+                         built-in (wood, plastic, metal, glass, porcelain) nor a preset"
+                    )))
+                }
+            }
+        }
+    };
+    m.validate().map_err(invalid)?;
+    Ok(m)
+}
