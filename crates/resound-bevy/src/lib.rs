@@ -98,8 +98,9 @@ impl Sounding {
         Self::at_vertex(s, vertex)
     }
 
-    /// A scene body's sound heard at one surface vertex (the plugin's contacts excite one).
-    fn at_vertex(s: resound::physics::BodySound, vertex: usize) -> Self {
+    /// A scene body's sound ([`resound::scene::build_scene`]) heard at one surface vertex (the
+    /// plugin's contacts excite one): a game body that sounds like the scene file's.
+    pub fn at_vertex(s: resound::physics::BodySound, vertex: usize) -> Self {
         let m = s.modes.len();
         let k = vertex.min(s.vertices.len().saturating_sub(1));
         Self {

@@ -326,6 +326,11 @@ fn a_radiating_body_is_heard_by_its_transfer_in_its_own_frame() {
 
 /// The bar of [`drop_scene`] dropped from `h` m onto its table, as a scene file.
 fn drop_scene_file(h: f64) -> String {
+    drop_scene_file_with(h, "")
+}
+
+/// [`drop_scene_file`] with `extra` lines added to the bar's body.
+fn drop_scene_file_with(h: f64, extra: &str) -> String {
     let [x, y, z] = drop_scene::BAR.map(|v| 2.0 * f64::from(v));
     format!(
         "duration = 0.6\nseed = 1\n[listener]\nposition = [0.0, 0.5, 0.3]\n\
@@ -334,7 +339,7 @@ fn drop_scene_file(h: f64) -> String {
          restitution = 0.3\nsound = false\n\
          [[body]]\nname = \"bar\"\nshape = {{ box = [{x}, {y}, {z}] }}\n\
          material = \"preset:aluminium\"\ndensity = 2700\nposition = [-0.3, {}, 0.0]\n\
-         restitution = 0.3\nmodes = 6\n",
+         restitution = 0.3\nmodes = 6\n{extra}",
         h + 0.5 * y
     )
 }
@@ -388,4 +393,142 @@ fn a_game_and_the_same_scene_offline_excite_the_same_impact() {
         (j_game / j_scene - 1.0).abs() < 0.15,
         "{j_game} vs {j_scene} N·s"
     );
+}
+
+/// RMS of `x` from `t0` s for `len_s` s.
+fn rms_from(x: &[f32], fs: f64, t0: f64, len_s: f64) -> f64 {
+    let a = (t0 * fs).round().max(0.0) as usize;
+    let b = ((t0 + len_s) * fs).round() as usize;
+    rms(&x[a.min(x.len())..b.min(x.len())])
+}
+
+/// Mono mix of the first two channels (or the one).
+fn mono(channels: &[Vec<f32>]) -> Vec<f32> {
+    match channels {
+        [a, b, ..] => a.iter().zip(b).map(|(a, b)| a + b).collect(),
+        [a] => a.clone(),
+        [] => Vec::new(),
+    }
+}
+
+#[test]
+#[ignore = "known defect (issue 33): the game's first impact is 27 dB below the offline render \
+            of the same body, whose level matches Σ|gain|·J/r; run with --ignored"]
+fn a_game_body_built_from_the_scene_sounds_like_the_scene_offline() {
+    // The same body on both sides: the scene file's bar, built by the library
+    // (resound::scene::build_scene), heard in the game at the vertex the offline render's
+    // first impact struck. Contact damping off (the plugin has none). The first impact
+    // then has the same modes, the same Hertz pulse (within the ≤ 8 % approach-speed
+    // difference of the other test) and the same 1/r to the one listener: its level over the
+    // first 30 ms agrees within 2 dB, and so does its spectrum's centroid within 5 %.
+    let h = 0.3;
+    let text = drop_scene_file_with(h, "contact_damping = 0.0\n");
+    let scene = resound::io::scene::parse_scene(&text, "drop").unwrap();
+    let (bodies, _) = resound::scene::build_scene(
+        &scene,
+        &resound::scene::BuildOptions {
+            base_dir: std::path::Path::new("."),
+            library: None,
+            cache_dir: None,
+            progress: &|_| {},
+        },
+    )
+    .unwrap();
+    let bar = bodies.iter().find(|b| b.name == "bar").unwrap();
+    let body = bar.sound.clone().unwrap();
+    let offline = resound::scene::render_scene_text(
+        &text,
+        "drop",
+        std::path::Path::new("."),
+        &resound::scene::SceneRenderParams {
+            keep_level: true,
+            ..Default::default()
+        },
+        &|_| {},
+    )
+    .unwrap();
+    let first = offline
+        .events
+        .iter()
+        .find(|e| e.kind == resound::physics::ContactKind::Impact)
+        .unwrap()
+        .clone();
+    // The bar falls without turning: the contact point in the body frame.
+    let centre = [-0.3, first.point[1] + f64::from(drop_scene::BAR[1]), 0.0];
+    let local: Vec<f64> = (0..3).map(|c| first.point[c] - centre[c]).collect();
+    let vertex = body
+        .vertices
+        .iter()
+        .enumerate()
+        .min_by(|(_, a), (_, b)| {
+            let d = |v: &[f64; 3]| (0..3).map(|c| (v[c] - local[c]).powi(2)).sum::<f64>();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap()
+        .0;
+    let sound = Sounding::at_vertex(body, vertex);
+    // The most the first impact can reach at the listener: every mode in phase, 1/r.
+    let bound = {
+        let sum: f64 = sound.gains.iter().map(|g| f64::from(g.abs())).sum();
+        let r = (0.3f64.powi(2) + 0.5f64.powi(2) + 0.3f64.powi(2)).sqrt();
+        sum * first.force / r
+    };
+    let mut app = drop_scene::app(&sound, &[h as f32]);
+    let game = drop_scene::run(&mut app, 0.6);
+    let (t_game, t_scene) = (game.impacts[0].0, first.time_s);
+    assert!(
+        (t_game - t_scene).abs() < 2.0 / drop_scene::FPS,
+        "impact at {t_game} s in the game, {t_scene} s offline"
+    );
+    let (g, s) = (mono(&game.channels), mono(&offline.channels));
+    let (fs_g, fs_s) = (game.sample_rate_hz, f64::from(offline.sample_rate_hz));
+    // Where each render's sound starts: the first sample above a tenth of its peak (the game
+    // hears a contact at the end of its frame, the scene within its step).
+    let onset = |x: &[f32], fs: f64| {
+        let peak = x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        x.iter().position(|v| v.abs() > 0.1 * peak).unwrap_or(0) as f64 / fs
+    };
+    let (on_g, on_s) = (onset(&g, fs_g), onset(&s, fs_s));
+    let pk = |x: &[f32]| f64::from(x.iter().fold(0.0f32, |m, v| m.max(v.abs())));
+    eprintln!(
+        "peaks: game {:.3e}, scene {:.3e}; Σ|gain|·J/r {bound:.3e}",
+        pk(&g),
+        pk(&s)
+    );
+    eprintln!(
+        "onsets: game {on_g:.4} s (impact {t_game:.4}), scene {on_s:.4} s (impact {t_scene:.4})"
+    );
+    assert!(
+        (on_g - on_s).abs() < 2.0 / drop_scene::FPS,
+        "the sound starts at {on_g} s in the game, {on_s} s offline"
+    );
+    let (t_game, t_scene) = (on_g, on_s);
+    let level_g = rms_from(&g, fs_g, t_game, 0.03);
+    let level_s = rms_from(&s, fs_s, t_scene, 0.03);
+    let db = 20.0 * (level_g / level_s).log10();
+    let centroid = |x: &[f32], fs: f64, t0: f64| {
+        let a = (t0 * fs) as usize;
+        let w = &x[a..(a + 128).min(x.len())];
+        let (mut num, mut den) = (0.0, 0.0);
+        // A plain DFT magnitude every 4th bin up to Nyquist: enough for a centroid.
+        for k in (1..w.len() / 2).step_by(4) {
+            let (mut re, mut im) = (0.0f64, 0.0f64);
+            for (n, &v) in w.iter().enumerate() {
+                let ph = -2.0 * std::f64::consts::PI * (k * n) as f64 / w.len() as f64;
+                re += f64::from(v) * ph.cos();
+                im += f64::from(v) * ph.sin();
+            }
+            let m = re.hypot(im);
+            num += k as f64 * fs / w.len() as f64 * m;
+            den += m;
+        }
+        num / den
+    };
+    let (c_g, c_s) = (centroid(&g, fs_g, t_game), centroid(&s, fs_s, t_scene));
+    eprintln!(
+        "vertex {vertex}: game {level_g:.3e} vs scene {level_s:.3e} ({db:+.2} dB); centroid \
+         {c_g:.0} vs {c_s:.0} Hz"
+    );
+    assert!(level_s > 0.0 && db.abs() < 2.0, "{db:+.2} dB");
+    assert!((c_g / c_s - 1.0).abs() < 0.05, "{c_g} vs {c_s} Hz");
 }
