@@ -420,7 +420,12 @@ fn excite(
     };
     let s = &settings.0;
     let fs = s.sample_rate_hz;
-    let dt = time.delta_secs_f64();
+    // rapier advances a fixed step every frame, whatever the frame's clock says (Bevy's first
+    // frame has no delta): the sound keeps the physics' time, else impacts land early.
+    let dt = match timestep.as_deref() {
+        Some(TimestepMode::Fixed { dt, .. }) => f64::from(*dt),
+        _ => time.delta_secs_f64(),
+    };
     let n_samples = (dt * fs).round() as usize;
     if n_samples == 0 {
         forces.clear();

@@ -23,6 +23,19 @@ pub struct LivePlayReport {
     pub degradation: u64,
 }
 
+/// The default output device and its default configuration.
+#[cfg(feature = "live")]
+fn default_device() -> Result<(cpal::Device, cpal::SupportedStreamConfig)> {
+    use cpal::traits::{DeviceTrait, HostTrait};
+    let device = cpal::default_host()
+        .default_output_device()
+        .ok_or_else(|| device_error("no audio output device"))?;
+    let config = device
+        .default_output_config()
+        .map_err(|e| device_error(format!("the audio output device is not usable: {e}")))?;
+    Ok((device, config))
+}
+
 #[cfg(feature = "live")]
 fn device_error(e: impl std::fmt::Display) -> Error {
     Error::Device(e.to_string())
@@ -32,18 +45,12 @@ fn device_error(e: impl std::fmt::Display) -> Error {
 /// at `gain` for `seconds` on the default output device at `sample_rate`.
 #[cfg(feature = "live")]
 pub fn play(strike: &Strike, gain: f32, sample_rate: u32, seconds: f64) -> Result<()> {
-    use cpal::traits::{DeviceTrait, HostTrait, StreamTrait};
+    use cpal::traits::{DeviceTrait, StreamTrait};
     use resound_synth::{BankMode, Engine, EngineParams};
     use std::sync::atomic::{AtomicUsize, Ordering};
     use std::sync::Arc;
 
-    let host = cpal::default_host();
-    let device = host
-        .default_output_device()
-        .ok_or_else(|| device_error("no audio output device"))?;
-    let default = device
-        .default_output_config()
-        .map_err(|e| device_error(format!("the audio output device is not usable: {e}")))?;
+    let (device, default) = default_device()?;
     let channels = usize::from(default.channels());
     let config = cpal::StreamConfig {
         channels: default.channels(),
@@ -126,19 +133,13 @@ pub fn play_scene(
     gain_db: f64,
     progress: crate::ProgressFn<'_>,
 ) -> Result<LivePlayReport> {
-    use cpal::traits::{DeviceTrait, HostTrait, StreamTrait};
+    use cpal::traits::{DeviceTrait, StreamTrait};
     use resound_physics::live::{live_scene, run_physics, LiveParams};
     use resound_synth::scene_audio::AudioStats;
     use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
     let (bodies, sp) = crate::scene::load_scene(path, params, progress)?;
-    let host = cpal::default_host();
-    let device = host
-        .default_output_device()
-        .ok_or_else(|| device_error("no audio output device"))?;
-    let default = device
-        .default_output_config()
-        .map_err(|e| device_error(format!("the audio output device is not usable: {e}")))?;
+    let (device, default) = default_device()?;
     let channels = usize::from(default.channels());
     let sample_rate = sp.sample_rate_hz as u32;
     // A callback may ask for more than `block` frames; the driver renders it in pieces.

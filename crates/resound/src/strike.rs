@@ -468,16 +468,8 @@ pub fn render_strike_from(
             };
             Ok((render_strike(struck, p)?, Vec::new()))
         }
-        StrikeSource::Object {
-            material,
-            library,
-            object,
-            object_params,
-            hit_m,
-        } => {
-            let material = load_material_spec(material, library.as_deref())?;
-            let model = crate::object::load_object(object, object_params, progress)?;
-            let (hit, note) = crate::object::snap_hit(&model, *hit_m)?;
+        StrikeSource::Object { object, .. } => {
+            let (material, model, hit, note) = load_struck_object(source, progress)?;
             let same_object =
                 material.was_estimated_on(&object.display().to_string(), hit.at.point);
             let struck = Struck::Object {
@@ -507,16 +499,8 @@ pub fn source_modes(
         StrikeSource::Stats { path, seed } => {
             Ok((crate::files::load_stats(path)?.sample(*seed)?, Vec::new()))
         }
-        StrikeSource::Object {
-            material,
-            library,
-            object,
-            object_params,
-            hit_m,
-        } => {
-            let material = load_material_spec(material, library.as_deref())?;
-            let model = crate::object::load_object(object, object_params, progress)?;
-            let (hit, note) = crate::object::snap_hit(&model, *hit_m)?;
+        StrikeSource::Object { .. } => {
+            let (material, model, hit, note) = load_struck_object(source, progress)?;
             let modes = material.modes(
                 &model.eigenvalues,
                 &hit.gains,
@@ -526,4 +510,26 @@ pub fn source_modes(
             Ok((modes, note.into_iter().collect()))
         }
     }
+}
+
+/// The material, model and hit of [`StrikeSource::Object`] (nothing for the other sources),
+/// with the note of a snapped hit.
+fn load_struck_object(
+    source: &StrikeSource,
+    progress: resound_core::ProgressFn<'_>,
+) -> Result<(SoundMaterial, ModalModel, Hit, Option<String>)> {
+    let StrikeSource::Object {
+        material,
+        library,
+        object,
+        object_params,
+        hit_m,
+    } = source
+    else {
+        return Err(invalid("not an object source"));
+    };
+    let material = load_material_spec(material, library.as_deref())?;
+    let model = crate::object::load_object(object, object_params, progress)?;
+    let (hit, note) = crate::object::snap_hit(&model, *hit_m)?;
+    Ok((material, model, hit, note))
 }
