@@ -126,7 +126,8 @@ fn main() -> ExitCode {
                 return ExitCode::SUCCESS;
             }
             match advice(&e) {
-                Some(a) => eprintln!("error: {e:#}; {a}"),
+                Some(Advice::Flag(flag)) => eprintln!("error: {flag}: {e:#}"),
+                Some(Advice::Hint(a)) => eprintln!("error: {e:#}; {a}"),
                 None => eprintln!("error: {e:#}"),
             }
             ExitCode::from(2)
@@ -134,9 +135,15 @@ fn main() -> ExitCode {
     }
 }
 
+/// What to do about a library error: the flag a parameter error is about, or a hint.
+enum Advice {
+    Flag(&'static str),
+    Hint(String),
+}
+
 /// What to do about a library error, in this CLI's flags: the library names no flag, so the
 /// advice for each of its error variants lives here (Python says the same with its keywords).
-fn advice(e: &anyhow::Error) -> Option<String> {
+fn advice(e: &anyhow::Error) -> Option<Advice> {
     const FLAGS: [(&str, &str); 6] = [
         ("max_freq_hz", "--max-freq-hz"),
         ("speed_m_s", "--velocity"),
@@ -149,20 +156,23 @@ fn advice(e: &anyhow::Error) -> Option<String> {
         .chain()
         .find_map(|c| c.downcast_ref::<resound::Error>())?
         .root();
-    Some(match root {
+    if let resound::Error::Param { field, .. } = root {
+        let (_, flag) = FLAGS.iter().find(|(f, _)| f == field)?;
+        return Some(Advice::Flag(flag));
+    }
+    Some(Advice::Hint(match root {
         resound::Error::Exists(_) => "pass --force to replace it".into(),
         resound::Error::Implausible(_) => "keep it anyway with --allow-implausible".into(),
-        resound::Error::Param { field, .. } => {
-            let (_, flag) = FLAGS.iter().find(|(f, _)| f == field)?;
-            format!("see {flag}")
-        }
         resound::Error::NoLiveAudio => "rebuild with `cargo build --release --features live`, \
             or render to a file"
             .into(),
+        resound::Error::Analyze(resound::signal::AnalyzeError::SampleRate(_)) => {
+            "pass --resample-hz 48000".into()
+        }
         resound::Error::Device(_) => "see --sample-rate (synth) or --block (scene)".into(),
         r if r.is_too_many_modes() => "if the file is not in metres pass --scale (0.001 for \
             millimetres), else lower --max-freq-hz, ask for --modes N or raise --max-modes"
             .into(),
         _ => return None,
-    })
+    }))
 }

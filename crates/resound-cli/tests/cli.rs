@@ -923,10 +923,7 @@ modes = 8
         assert!(diff < 1e-4, "live differs from offline by {diff}");
     }
     if !cfg!(feature = "live") {
-        fails_with(
-            &resound(&["scene", "s.toml", "--live"], d),
-            "built without live audio",
-        );
+        fails_with(&resound(&["scene", "s.toml", "--live"], d), "no live audio");
     }
     // A bad value names its line and field; nothing is written.
     std::fs::write(
