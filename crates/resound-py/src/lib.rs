@@ -347,7 +347,7 @@ fn render_scrape<'py>(
     irs: usize,
     seed: u64,
     sample_rate: u32,
-) -> PyResult<(Bound<'py, PyArray1<f32>>, f64)> {
+) -> PyResult<(Bound<'py, PyArray1<f32>>, f64, Bound<'py, PyAny>)> {
     use resound::scrape::{render_scrape, Path1d, ScrapeJob, SurfaceSpec};
     let path = match (speed_m_s, trajectory) {
         (Some(v), None) => Path1d::Speed(v),
@@ -397,7 +397,8 @@ fn render_scrape<'py>(
         sample_rate_hz: sample_rate,
     };
     let r = py.detach(|| render_scrape(&job)).map_err(err)?;
-    Ok((r.samples.into_pyarray(py), r.info.path_m))
+    let info = report(py, &r.info)?;
+    Ok((r.samples.into_pyarray(py), r.info.path_m, info))
 }
 
 /// Renders a scene given as a dict of the scene file's fields (relative paths from

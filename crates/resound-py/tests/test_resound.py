@@ -405,6 +405,12 @@ def test_a_scrape_sounds_at_the_objects_modes_and_matches_the_cli(model, tmp_pat
     assert len(cli_x) == len(x)
     corr = np.dot(cli_x, x) / np.sqrt(np.dot(cli_x, cli_x) * np.dot(x.astype(np.float64), x))
     assert corr > 0.99999
+    # A scrape that would clip is turned down, and says so (never silently).
+    loud = modes.copy()
+    loud[:, 2] *= 1e10  # the plain scrape peaks near -158 dBFS
+    with pytest.warns(UserWarning, match="turned down by"):
+        y, _ = resound.render_scrape(loud, speed_m_s=0.2, duration_s=0.5, sample_rate=fs)
+    assert np.max(np.abs(y)) <= 1.0
     with pytest.raises(resound.ResoundError, match="speed_m_s or trajectory"):
         resound.render_scrape(modes, duration_s=0.5)
     with pytest.raises(resound.ResoundError, match="increase"):

@@ -14,6 +14,7 @@ same typed reports of the Rust library.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
@@ -407,7 +408,9 @@ def render_scrape(modes: Union[Modes, np.ndarray], *, speed_m_s: Optional[float]
                   irs: int = 8, seed: int = 1, sample_rate: int = 48000
                   ) -> Tuple[np.ndarray, float]:
     """A probe scraped over a surface texture on an object (Traer 2019 §4, eq. 8–9), as
-    ``resound scrape``: float32 samples (not normalized) and the length scraped, m.
+    ``resound scrape``: float32 samples at their physical level (turned down only where they
+    would clip, with a :class:`UserWarning` saying by how much; an inaudible render warns too)
+    and the length scraped, m.
 
     Args:
         modes: the object's modes per unit impulse — :meth:`ModalModel.modes`,
@@ -423,10 +426,16 @@ def render_scrape(modes: Union[Modes, np.ndarray], *, speed_m_s: Optional[float]
     """
     rows = modes.to_array() if isinstance(modes, Modes) else np.asarray(modes, np.float64)
     traj = None if trajectory is None else np.ascontiguousarray(trajectory, dtype=np.float64)
-    return _native.render_scrape(np.ascontiguousarray(rows.reshape(-1, 4)), speed_m_s, traj,
-                                 duration_s, os.fspath(surface), roughness_m, surface_spacing_m,
-                                 probe_mass_kg, friction, gamma, tip_width_m, irs, seed,
-                                 sample_rate)
+    x, length_m, info = _native.render_scrape(
+        np.ascontiguousarray(rows.reshape(-1, 4)), speed_m_s, traj, duration_s,
+        os.fspath(surface), roughness_m, surface_spacing_m, probe_mass_kg, friction, gamma,
+        tip_width_m, irs, seed, sample_rate)
+    for w in info["warnings"]:
+        warnings.warn(w["message"], UserWarning, stacklevel=2)
+    if info["gain_db"] < 0:
+        warnings.warn(f"peak {info['peak']:.2f} of full scale; turned down by "
+                      f"{-info['gain_db']:.1f} dB (no clipping)", UserWarning, stacklevel=2)
+    return x, length_m
 
 
 def analyze_grains(recordings: Sequence[Union[PathLike, Tuple[str, np.ndarray]]],

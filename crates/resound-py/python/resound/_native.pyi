@@ -194,7 +194,8 @@ def render_scrape(modes: npt.NDArray[np.float64], speed_m_s: Optional[float] = N
                   roughness_m: float = 5e-6, surface_spacing_m: float = 1e-5,
                   probe_mass_kg: float = 0.01, friction: float = 100.0, gamma: float = 1.0,
                   tip_width_m: float = 2e-4, irs: int = 8, seed: int = 1,
-                  sample_rate: int = 48000) -> Tuple[npt.NDArray[np.float32], float]: ...
+                  sample_rate: int = 48000
+                  ) -> Tuple[npt.NDArray[np.float32], float, Dict[str, Any]]: ...
 def grains_analyze(recordings: List[str], output: _Path,
                    arrays: Optional[List[npt.NDArray[np.float32]]] = None,
                    sample_rate: Optional[float] = None, kind: str = "auto",
