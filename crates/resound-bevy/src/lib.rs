@@ -16,7 +16,11 @@
 //! - a pair that stays in touch **slides** or **rolls** by the slip of its contact points
 //!   (taken at the contact radius from each centre, along the contact normal), with the
 //!   scene's sliding and rolling forces over the frame;
-//! - a pair at rest, and a body in free fall, send nothing: silence once the modes decay.
+//! - a pair whose points fly apart after an impact is its rebound and does neither;
+//! - a pair in touch **damps** each sounding body by the pair's contact loss factor
+//!   ([`Sounding::contact_loss`]) times the share of its weight it carries, as offline — and
+//!   keeps damping it while rapier has it asleep on its support;
+//! - a pair at rest, and a body in free fall, send no force: silence once the modes decay.
 //!
 //! Sources are placed at their bodies' positions every frame and heard from the listener with
 //! 1/r attenuation, the propagation delay and an equal-power pan. Headless (no device: tests,
@@ -26,8 +30,9 @@
 use bevy::prelude::*;
 use bevy_rapier3d::prelude::*;
 use resound::physics::contact::{
-    classify_persistent, impact_pulse, is_impact, radius_from_extents, scene_profile, ContactBody,
-    ContactKind, PairContact, SILENT_ELASTIC,
+    classify_persistent, contact_loss, impact_pulse, is_impact, is_leaving, loss_changed,
+    radius_from_extents, scene_profile, ContactBody, ContactKind, PairContact, MAX_CONTACT_LOSS,
+    SILENT_ELASTIC,
 };
 use resound::synth::radiation::Radiator;
 use resound::synth::scene_audio::{
@@ -82,6 +87,11 @@ pub struct Sounding {
     pub radiation: Option<resound::physics::BodyRadiation>,
     /// Elastic constants for Hertz contact (a scene body's: the material's E at the model's ν).
     pub elastic: resound::synth::excitation::Elastic,
+    /// Contact damping: the loss factor η the body takes on across a contact that carries its
+    /// whole weight (the scene's `contact_damping`; [`resound::physics::DEFAULT_CONTACT_LOSS`]
+    /// unless set), shared with the other body as in an offline scene
+    /// ([`resound::physics::contact::contact_loss`]). 0: it rings on however it rests.
+    pub contact_loss: f64,
 }
 
 impl Sounding {
@@ -111,6 +121,7 @@ impl Sounding {
             modes: s.modes,
             radiation: s.radiation,
             elastic: s.elastic,
+            contact_loss: s.contact_loss,
         }
     }
 
@@ -209,6 +220,7 @@ impl Sounding {
                 .collect(),
             radiation: None,
             elastic: resound::physics::contact::SILENT_ELASTIC,
+            contact_loss: resound::physics::DEFAULT_CONTACT_LOSS,
         })
     }
 }
@@ -251,12 +263,13 @@ pub struct AudioLink {
     capacity: Vec<usize>,
     /// Bodies that found no free source (reported once each).
     unheard: HashSet<Entity>,
-    /// Pairs in touch at the last frame, with their contact state (profile position).
-    touching: HashMap<(Entity, Entity), PairContact>,
+    /// Pairs in touch at the last frame, with their contact state (profile position) and
+    /// normal force (N).
+    touching: HashMap<(Entity, Entity), (PairContact, f64)>,
     /// Last frame's map, emptied (its capacity reused).
-    spare: HashMap<(Entity, Entity), PairContact>,
+    spare: HashMap<(Entity, Entity), (PairContact, f64)>,
     /// This frame's pairs: impulse (N·s), the strongest force's direction and magnitude.
-    frame: HashMap<(Entity, Entity), (f64, Vec3, f32)>,
+    frame: HashMap<(Entity, Entity), (f64, Vec3, f32, u32)>,
     /// Each body's velocity at the end of the last frame (the approach of a new contact).
     before: HashMap<Entity, Velocity>,
     /// Per radiating source, its modes' radiation at the listener.
@@ -264,6 +277,9 @@ pub struct AudioLink {
     clock: u64,
     profile: resound::synth::contact::Profile,
     force: Vec<f32>,
+    /// Each source's contact loss factor this frame, and the one last sent.
+    loss: Vec<f64>,
+    sent_loss: Vec<f64>,
 }
 
 #[derive(Resource, Clone)]
@@ -333,7 +349,8 @@ fn start(
         });
     }
     free.reverse();
-    let capacity = sources.iter().map(|s| s.modes.len()).collect();
+    let capacity: Vec<usize> = sources.iter().map(|s| s.modes.len()).collect();
+    let n_sources = capacity.len();
     let params = SceneAudioParams {
         sample_rate_hz: s.sample_rate_hz,
         stereo: s.stereo,
@@ -367,6 +384,8 @@ fn start(
                 clock: 0,
                 profile: scene_profile(s.seed),
                 force: vec![0.0; (fs / 10.0) as usize],
+                loss: vec![0.0; n_sources],
+                sent_loss: vec![0.0; n_sources],
             })));
         }
         Err(e) => eprintln!("resound: no audio: {e}"),
@@ -413,6 +432,8 @@ fn excite(
     added: Query<(Entity, &Sounding), Added<Sounding>>,
     mut removed: RemovedComponents<Sounding>,
     listener: Query<&Transform, With<Listener>>,
+    rapier: Query<&RapierConfiguration>,
+    sleeping: Query<&Sleeping>,
 ) {
     let Some(mut state) = state else {
         forces.clear();
@@ -525,8 +546,9 @@ fn excite(
             (f.collider2, f.collider1)
         };
         let j = f64::from(f.total_force_magnitude) * dt_sub;
-        let e = frame.entry(key).or_insert((0.0, Vec3::ZERO, 0.0));
+        let e = frame.entry(key).or_insert((0.0, Vec3::ZERO, 0.0, 0));
         e.0 += j;
+        e.3 += 1;
         if f.max_force_magnitude >= e.2 {
             e.2 = f.max_force_magnitude;
             e.1 = f.max_force_direction;
@@ -537,12 +559,19 @@ fn excite(
     }
     let mut now = std::mem::take(&mut link.spare);
     now.clear();
-    for (&key, &(impulse, direction, _)) in &frame {
+    link.loss.iter_mut().for_each(|l| *l = 0.0);
+    let gravity = rapier
+        .iter()
+        .next()
+        .map_or(9.81, |c| f64::from(c.gravity.length()));
+    for (&key, &(impulse, direction, _, reports)) in &frame {
         let (Some(a), Some(b)) = (contact_side(&bodies, key.0), contact_side(&bodies, key.1))
         else {
             continue;
         };
-        let normal_force = impulse / dt;
+        // The force while in touch: over the substeps the pair was reported in (a body that
+        // falls asleep mid-frame is reported in the first few only).
+        let normal_force = impulse / (f64::from(reports.clamp(1, substeps as u32)) * dt_sub);
         // The contact normal, from the first body towards the second.
         let mut n = direction.normalize_or_zero();
         if n.dot(b.position - a.position) < 0.0 {
@@ -550,7 +579,7 @@ fn excite(
         }
         let targets = [key.0, key.1].map(|e| link.source_of.get(&e).copied());
         let (mut pair, first) = match link.touching.remove(&key) {
-            Some(p) => (p, false),
+            Some((p, _)) => (p, false),
             None => (PairContact::new(pair_offset(key)), true),
         };
         if first {
@@ -584,7 +613,17 @@ fn excite(
                     output.impact_figures.push((approach, impulse));
                 }
             }
+        } else if is_leaving(f64::from((a.linvel - b.linvel).dot(n))) {
+            // An impact's rebound: neither damps nor rubs.
         } else {
+            // Contact damping, as offline: each sounding side takes on a share of the pair's
+            // loss factor.
+            for (t, (me, other)) in targets.iter().zip([(&a, &b), (&b, &a)]) {
+                if let Some(l) = t.and_then(|i| link.loss.get_mut(i as usize)) {
+                    let weight = me.contact.mass_kg * gravity;
+                    *l += contact_loss(me.loss, other.loss, normal_force, weight);
+                }
+            }
             // The contact points' velocities, each at its contact radius along the normal.
             let at_contact = |s: &Side, r: Vec3| s.linvel + s.angvel.cross(r);
             let va = at_contact(&a, n * a.contact.radius_m as f32);
@@ -625,10 +664,64 @@ fn excite(
                 }
             }
         }
-        now.insert(key, pair);
+        now.insert(key, (pair, normal_force));
+    }
+    // rapier reports no forces for a body asleep, though it still rests where it lay: a pair
+    // whose moving bodies all sleep stays in touch and keeps damping them.
+    // (rapier zeroes a sleeping body's velocity, which bevy_rapier writes back.)
+    let asleep = |e: Entity| {
+        contact_side(&bodies, e).is_some_and(|s| {
+            s.contact.mass_kg.is_infinite() || (s.linvel == Vec3::ZERO && s.angvel == Vec3::ZERO)
+        }) || sleeping.get(e).is_ok_and(|s| s.sleeping)
+    };
+    for (key, (pair, normal_force)) in link.touching.drain() {
+        if !(asleep(key.0) && asleep(key.1)) {
+            continue;
+        }
+        let (Some(a), Some(b)) = (contact_side(&bodies, key.0), contact_side(&bodies, key.1))
+        else {
+            continue;
+        };
+        for (e, (me, other)) in [key.0, key.1].into_iter().zip([(&a, &b), (&b, &a)]) {
+            let t = link.source_of.get(&e).copied();
+            if let Some(l) = t.and_then(|i| link.loss.get_mut(i as usize)) {
+                *l += contact_loss(
+                    me.loss,
+                    other.loss,
+                    normal_force,
+                    me.contact.mass_kg * gravity,
+                );
+            }
+        }
+        now.insert(key, (pair, normal_force));
     }
     link.spare = std::mem::replace(&mut link.touching, now);
     link.frame = frame;
+    // Contact damping sent as the offline scene sends it; an immovable body is held by its
+    // mounting and keeps its own loss factor.
+    for (&e, &i) in &link.source_of {
+        let (Some(side), Some(&eta), Some(sent)) = (
+            contact_side(&bodies, e),
+            link.loss.get(i as usize),
+            link.sent_loss.get_mut(i as usize),
+        ) else {
+            continue;
+        };
+        let eta = if side.contact.mass_kg.is_infinite() {
+            side.loss
+        } else {
+            eta
+        }
+        .min(MAX_CONTACT_LOSS);
+        if loss_changed(eta, *sent)
+            && link.tx.send(Cue::Damping {
+                source: i,
+                loss_factor: eta as f32,
+            })
+        {
+            *sent = eta;
+        }
+    }
     // Every rigid body reports its velocity and mass from the next frame on: a body without a
     // Sounding still brings its approach speed and mass to a contact.
     for e in &unmeasured {
@@ -677,6 +770,8 @@ type BodyParts = (
 /// One side of a contact: what the shared contact model needs, and its motion.
 struct Side {
     contact: ContactBody,
+    /// Its own contact loss factor ([`Sounding::contact_loss`]).
+    loss: f64,
     position: Vec3,
     linvel: Vec3,
     angvel: Vec3,
@@ -716,6 +811,7 @@ fn contact_side(bodies: &Query<BodyParts>, e: Entity) -> Option<Side> {
             radius_m,
             elastic: snd.map_or(SILENT_ELASTIC, |s| s.elastic),
         },
+        loss: snd.map_or(resound::physics::DEFAULT_CONTACT_LOSS, |s| s.contact_loss),
         position: t.translation,
         linvel: v.linear,
         angvel: v.angular,

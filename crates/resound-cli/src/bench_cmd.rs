@@ -5,6 +5,21 @@ use anyhow::Result;
 use clap::{Args, Subcommand};
 use resound_bench::run;
 
+/// Declares a benchmark's flags once: the clap struct here and its conversion into the
+/// runner's plain arguments of the same name in resound-bench (`run::…`).
+macro_rules! bench_args {
+    ($(#[$m:meta])* $name:ident { $($(#[$fm:meta])* $f:ident: $t:ty,)* }) => {
+        $(#[$m])*
+        #[derive(Args, Debug)]
+        pub struct $name { $($(#[$fm])* pub $f: $t,)* }
+        impl From<$name> for run::$name {
+            fn from(a: $name) -> Self {
+                Self { $($f: a.$f,)* }
+            }
+        }
+    };
+}
+
 /// Benchmarks.
 #[derive(Subcommand, Debug)]
 pub enum BenchCmd {
@@ -46,329 +61,217 @@ pub enum BenchCmd {
     Radiation(RadiationBenchArgs),
 }
 
-/// Arguments of `bench radiation`.
-#[derive(Args, Debug)]
-pub struct RadiationBenchArgs {
-    /// JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Modes.
-    #[arg(long, default_value_t = 200)]
-    pub modes: usize,
-    /// Most equivalent sources of the fit.
-    #[arg(long, default_value_t = 800)]
-    pub sources: usize,
-}
-
-/// Arguments of `bench batch`.
-#[derive(Args, Debug)]
-pub struct BatchBenchArgs {
-    /// JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Meshes (boxes of different sizes).
-    #[arg(long, default_value_t = 20)]
-    pub meshes: usize,
-    /// Hit points per mesh (one job each).
-    #[arg(long, default_value_t = 10)]
-    pub hits: usize,
-    /// Modes per model.
-    #[arg(long, default_value_t = 60)]
-    pub modes: usize,
-    /// Length of each strike, s.
-    #[arg(long, default_value_t = 1.0)]
-    pub duration_s: f64,
-}
-
-/// Arguments of `bench live`.
-#[derive(Args, Debug)]
-pub struct LiveBenchArgs {
-    /// JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Bodies of the main run.
-    #[arg(long, default_value_t = 100)]
-    pub bodies: usize,
-    /// Seconds of the main run.
-    #[arg(long, default_value_t = 60.0)]
-    pub seconds: f64,
-    /// Samples per callback.
-    #[arg(long, default_value_t = 256)]
-    pub block: usize,
-    /// Largest body count tried when searching for the first deadline miss (doubling from
-    /// `--bodies`, 5 s each).
-    #[arg(long, default_value_t = 3200)]
-    pub max_bodies: usize,
-}
-
-/// Arguments of `bench grains`.
-#[derive(Args, Debug)]
-pub struct GrainsBenchArgs {
-    /// JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// The shared recordings (with `spatialaudio-ramp/` and `minetest-game/`); default: the
-    /// first of ../shared/data/recordings, /work/shared/data/recordings that exists.
-    #[arg(long)]
-    pub data: Option<std::path::PathBuf>,
-}
-
-/// Arguments of `bench stats`.
-#[derive(Args, Debug)]
-pub struct StatsBenchArgs {
-    /// JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-}
-
-/// Arguments of `bench scene`.
-#[derive(Args, Debug)]
-pub struct SceneBenchArgs {
-    /// JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Body counts.
-    #[arg(long, default_value = "10,100", value_delimiter = ',')]
-    pub bodies: Vec<usize>,
-    /// Seconds of audio.
-    #[arg(long, default_value_t = 10.0)]
-    pub seconds: f64,
-    /// Keep the scene files, library, cache and WAVs in this directory (default: a temporary one).
-    #[arg(long)]
-    pub dir: Option<std::path::PathBuf>,
-    /// Physics steps per second (the scene files' default).
-    #[arg(long, default_value_t = 240.0)]
-    pub steps_per_second: f64,
-}
-
-/// Arguments of `bench synth`.
-#[derive(Args, Debug)]
-pub struct SynthBenchArgs {
-    /// JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Modes in the bank.
-    #[arg(long, default_value_t = 4096)]
-    pub modes: usize,
-    /// Seconds of audio rendered per measurement.
-    #[arg(long, default_value_t = 2.0)]
-    pub seconds: f64,
-    /// Residual transfer events.
-    #[arg(long, default_value_t = 200)]
-    pub events: usize,
-}
-
-/// Arguments of `bench estimate`.
-#[derive(Args, Debug)]
-pub struct EstimateBenchArgs {
-    /// JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Skip the closed-form / synthesize+STFT comparison rows.
-    #[arg(long)]
-    pub no_synthesized: bool,
-}
-
-/// Arguments of `bench analyze`.
-#[derive(Args, Debug)]
-pub struct AnalyzeBenchArgs {
-    /// JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Single damped sinusoids (protocol 1).
-    #[arg(long, default_value_t = 100)]
-    pub trials: usize,
-    /// Mixtures per SNR (protocol 2).
-    #[arg(long, default_value_t = 40)]
-    pub mixtures: usize,
-    /// SNRs of protocol 2, dB.
-    #[arg(long, default_value = "60,40,25")]
-    pub snr_db: String,
-    /// Random seed.
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Skip the stage-1-only (Ren 2013 alone) comparison rows.
-    #[arg(long)]
-    pub no_stage1: bool,
-    /// Cases per SNR of the wide protocol (4): 20 Hz–22 kHz, d 0.1–1000 1/s, doublets, a noisy
-    /// lead-in with a DC offset (0: skip).
-    #[arg(long, default_value_t = 40)]
-    pub wide: usize,
-    /// SNRs of the wide protocol, dB.
-    #[arg(long, default_value = "100,60,40,25")]
-    pub wide_snr_db: String,
-    /// Run only the wide protocol.
-    #[arg(long)]
-    pub wide_only: bool,
-}
-
-/// Arguments of `bench modal`.
-#[derive(Args, Debug)]
-pub struct ModalBenchArgs {
-    /// JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// Target DOF counts.
-    #[arg(long, default_value = "10000,30000,100000", value_delimiter = ',')]
-    pub dofs: Vec<usize>,
-    /// Elastic modes per solve.
-    #[arg(long, default_value_t = 200)]
-    pub modes: usize,
-    /// Meshes: bar, spot.
-    #[arg(long, default_value = "bar,spot")]
-    pub meshes: String,
-    /// Also certify the count with a Sturm check (one more factorization).
-    #[arg(long)]
-    pub sturm: bool,
-    /// Also run faer's single-vector Lanczos (the baseline) on cases up to this many DOFs and
-    /// report the speed-up ratio measured in the same run (0: off).
-    #[arg(long, default_value_t = 0)]
-    pub compare_up_to: usize,
-}
-
-/// One case (hidden subcommand).
-#[derive(Args, Debug)]
-pub struct CaseArgs {
-    /// bar or spot.
-    #[arg(long)]
-    pub mesh: String,
-    /// Target DOFs.
-    #[arg(long)]
-    pub target_dofs: usize,
-    /// Elastic modes.
-    #[arg(long)]
-    pub modes: usize,
-    /// Sturm check.
-    #[arg(long)]
-    pub sturm: bool,
-    /// Use faer's single-vector Lanczos instead of block Lanczos.
-    #[arg(long)]
-    pub faer_lanczos: bool,
-}
-
-impl From<RadiationBenchArgs> for run::RadiationBenchArgs {
-    fn from(a: RadiationBenchArgs) -> Self {
-        Self {
-            json: a.json,
-            modes: a.modes,
-            sources: a.sources,
-        }
+bench_args! {
+    /// Arguments of `bench radiation`.
+    RadiationBenchArgs {
+        /// JSON on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Modes.
+        #[arg(long, default_value_t = 200)]
+        modes: usize,
+        /// Most equivalent sources of the fit.
+        #[arg(long, default_value_t = 800)]
+        sources: usize,
     }
 }
 
-impl From<BatchBenchArgs> for run::BatchBenchArgs {
-    fn from(a: BatchBenchArgs) -> Self {
-        Self {
-            json: a.json,
-            meshes: a.meshes,
-            hits: a.hits,
-            modes: a.modes,
-            duration_s: a.duration_s,
-        }
+bench_args! {
+    /// Arguments of `bench batch`.
+    BatchBenchArgs {
+        /// JSON on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Meshes (boxes of different sizes).
+        #[arg(long, default_value_t = 20)]
+        meshes: usize,
+        /// Hit points per mesh (one job each).
+        #[arg(long, default_value_t = 10)]
+        hits: usize,
+        /// Modes per model.
+        #[arg(long, default_value_t = 60)]
+        modes: usize,
+        /// Length of each strike, s.
+        #[arg(long, default_value_t = 1.0)]
+        duration_s: f64,
     }
 }
 
-impl From<LiveBenchArgs> for run::LiveBenchArgs {
-    fn from(a: LiveBenchArgs) -> Self {
-        Self {
-            json: a.json,
-            bodies: a.bodies,
-            seconds: a.seconds,
-            block: a.block,
-            max_bodies: a.max_bodies,
-        }
+bench_args! {
+    /// Arguments of `bench live`.
+    LiveBenchArgs {
+        /// JSON on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Bodies of the main run.
+        #[arg(long, default_value_t = 100)]
+        bodies: usize,
+        /// Seconds of the main run.
+        #[arg(long, default_value_t = 60.0)]
+        seconds: f64,
+        /// Samples per callback.
+        #[arg(long, default_value_t = 256)]
+        block: usize,
+        /// Largest body count tried when searching for the first deadline miss (doubling from
+        /// `--bodies`, 5 s each).
+        #[arg(long, default_value_t = 3200)]
+        max_bodies: usize,
     }
 }
 
-impl From<GrainsBenchArgs> for run::GrainsBenchArgs {
-    fn from(a: GrainsBenchArgs) -> Self {
-        Self {
-            json: a.json,
-            data: a.data,
-        }
+bench_args! {
+    /// Arguments of `bench grains`.
+    GrainsBenchArgs {
+        /// JSON on stdout.
+        #[arg(long)]
+        json: bool,
+        /// The shared recordings (with `spatialaudio-ramp/` and `minetest-game/`); default: the
+        /// first of ../shared/data/recordings, /work/shared/data/recordings that exists.
+        #[arg(long)]
+        data: Option<std::path::PathBuf>,
     }
 }
 
-impl From<StatsBenchArgs> for run::StatsBenchArgs {
-    fn from(a: StatsBenchArgs) -> Self {
-        Self { json: a.json }
+bench_args! {
+    /// Arguments of `bench stats`.
+    StatsBenchArgs {
+        /// JSON on stdout.
+        #[arg(long)]
+        json: bool,
     }
 }
 
-impl From<SceneBenchArgs> for run::SceneBenchArgs {
-    fn from(a: SceneBenchArgs) -> Self {
-        Self {
-            json: a.json,
-            bodies: a.bodies,
-            seconds: a.seconds,
-            dir: a.dir,
-            steps_per_second: a.steps_per_second,
-        }
+bench_args! {
+    /// Arguments of `bench scene`.
+    SceneBenchArgs {
+        /// JSON on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Body counts.
+        #[arg(long, default_value = "10,100", value_delimiter = ',')]
+        bodies: Vec<usize>,
+        /// Seconds of audio.
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        /// Keep the scene files, library, cache and WAVs in this directory (default: a temporary one).
+        #[arg(long)]
+        dir: Option<std::path::PathBuf>,
+        /// Physics steps per second (the scene files' default).
+        #[arg(long, default_value_t = 240.0)]
+        steps_per_second: f64,
     }
 }
 
-impl From<SynthBenchArgs> for run::SynthBenchArgs {
-    fn from(a: SynthBenchArgs) -> Self {
-        Self {
-            json: a.json,
-            modes: a.modes,
-            seconds: a.seconds,
-            events: a.events,
-        }
+bench_args! {
+    /// Arguments of `bench synth`.
+    SynthBenchArgs {
+        /// JSON on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Modes in the bank.
+        #[arg(long, default_value_t = 4096)]
+        modes: usize,
+        /// Seconds of audio rendered per measurement.
+        #[arg(long, default_value_t = 2.0)]
+        seconds: f64,
+        /// Residual transfer events.
+        #[arg(long, default_value_t = 200)]
+        events: usize,
     }
 }
 
-impl From<EstimateBenchArgs> for run::EstimateBenchArgs {
-    fn from(a: EstimateBenchArgs) -> Self {
-        Self {
-            json: a.json,
-            no_synthesized: a.no_synthesized,
-        }
+bench_args! {
+    /// Arguments of `bench estimate`.
+    EstimateBenchArgs {
+        /// JSON on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Skip the closed-form / synthesize+STFT comparison rows.
+        #[arg(long)]
+        no_synthesized: bool,
     }
 }
 
-impl From<AnalyzeBenchArgs> for run::AnalyzeBenchArgs {
-    fn from(a: AnalyzeBenchArgs) -> Self {
-        Self {
-            json: a.json,
-            trials: a.trials,
-            mixtures: a.mixtures,
-            snr_db: a.snr_db,
-            seed: a.seed,
-            no_stage1: a.no_stage1,
-            wide: a.wide,
-            wide_snr_db: a.wide_snr_db,
-            wide_only: a.wide_only,
-        }
+bench_args! {
+    /// Arguments of `bench analyze`.
+    AnalyzeBenchArgs {
+        /// JSON on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Single damped sinusoids (protocol 1).
+        #[arg(long, default_value_t = 100)]
+        trials: usize,
+        /// Mixtures per SNR (protocol 2).
+        #[arg(long, default_value_t = 40)]
+        mixtures: usize,
+        /// SNRs of protocol 2, dB.
+        #[arg(long, default_value = "60,40,25")]
+        snr_db: String,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Skip the stage-1-only (Ren 2013 alone) comparison rows.
+        #[arg(long)]
+        no_stage1: bool,
+        /// Cases per SNR of the wide protocol (4): 20 Hz–22 kHz, d 0.1–1000 1/s, doublets, a noisy
+        /// lead-in with a DC offset (0: skip).
+        #[arg(long, default_value_t = 40)]
+        wide: usize,
+        /// SNRs of the wide protocol, dB.
+        #[arg(long, default_value = "100,60,40,25")]
+        wide_snr_db: String,
+        /// Run only the wide protocol.
+        #[arg(long)]
+        wide_only: bool,
     }
 }
 
-impl From<ModalBenchArgs> for run::ModalBenchArgs {
-    fn from(a: ModalBenchArgs) -> Self {
-        Self {
-            json: a.json,
-            dofs: a.dofs,
-            modes: a.modes,
-            meshes: a.meshes,
-            sturm: a.sturm,
-            compare_up_to: a.compare_up_to,
-        }
+bench_args! {
+    /// Arguments of `bench modal`.
+    ModalBenchArgs {
+        /// JSON on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Target DOF counts.
+        #[arg(long, default_value = "10000,30000,100000", value_delimiter = ',')]
+        dofs: Vec<usize>,
+        /// Elastic modes per solve.
+        #[arg(long, default_value_t = 200)]
+        modes: usize,
+        /// Meshes: bar, spot.
+        #[arg(long, default_value = "bar,spot")]
+        meshes: String,
+        /// Also certify the count with a Sturm check (one more factorization).
+        #[arg(long)]
+        sturm: bool,
+        /// Also run faer's single-vector Lanczos (the baseline) on cases up to this many DOFs and
+        /// report the speed-up ratio measured in the same run (0: off).
+        #[arg(long, default_value_t = 0)]
+        compare_up_to: usize,
     }
 }
 
-impl From<CaseArgs> for run::CaseArgs {
-    fn from(a: CaseArgs) -> Self {
-        Self {
-            mesh: a.mesh,
-            target_dofs: a.target_dofs,
-            modes: a.modes,
-            sturm: a.sturm,
-            faer_lanczos: a.faer_lanczos,
-        }
+bench_args! {
+    /// One case (hidden subcommand).
+    CaseArgs {
+        /// bar or spot.
+        #[arg(long)]
+        mesh: String,
+        /// Target DOFs.
+        #[arg(long)]
+        target_dofs: usize,
+        /// Elastic modes.
+        #[arg(long)]
+        modes: usize,
+        /// Sturm check.
+        #[arg(long)]
+        sturm: bool,
+        /// Use faer's single-vector Lanczos instead of block Lanczos.
+        #[arg(long)]
+        faer_lanczos: bool,
     }
 }
 
-/// Runs a benchmark.
 pub fn run(c: BenchCmd) -> Result<()> {
     match c {
         BenchCmd::Modal(a) => run::run_modal(a.into()),

@@ -12,7 +12,10 @@
 //!   moves faster than [`MOVE_MIN_SPEED`]; each step's force follows
 //!   `resound_synth::contact` (a rough profile read at the slip speed; the same low-passed and
 //!   modulated by the roller's turn) — [`PairContact::continuous`].
+//! - A pair still in touch whose points fly apart is an impact's rebound ([`is_leaving`]).
 //! - Anything else rests and sends nothing.
+//! - A pair in touch **damps** each body by a loss factor ([`contact_loss`]): a body resting
+//!   on another rings shorter, sent when it changes enough ([`loss_changed`]).
 
 use resound_synth::contact::{ContactForce, Profile, ROUGHNESS};
 use resound_synth::excitation::{ContactModel, Elastic, Impact};
@@ -84,6 +87,14 @@ pub fn classify_persistent(
 /// an impact.
 pub fn is_impact(approach_m_s: f64) -> bool {
     approach_m_s > IMPACT_MIN_SPEED
+}
+
+/// Whether a pair still reported in touch is flying apart: its contact points separate along
+/// the normal faster than [`IMPACT_MIN_SPEED`] (`approach_m_s` < −that) after the step. That
+/// is an impact's rebound (the solver spreads the impulse over the next step), not a body
+/// resting or rubbing: it neither damps nor slides.
+pub fn is_leaving(approach_m_s: f64) -> bool {
+    approach_m_s < -IMPACT_MIN_SPEED
 }
 
 /// The force pulse of an impact between `bodies` approaching at `approach_m_s`: Hertz's shape
@@ -180,6 +191,34 @@ impl PairContact {
 /// The rough profile every continuous contact of a scene reads, from the scene's `seed`.
 pub fn scene_profile(seed: u64) -> Profile {
     Profile::fractal(1 << 17, 1.0, seed)
+}
+
+/// Most contact loss factor a body takes on, however many contacts it has.
+pub const MAX_CONTACT_LOSS: f64 = 0.2;
+
+/// The loss factor a body with its own loss factor `own` ([`crate::DEFAULT_CONTACT_LOSS`] for
+/// one that does not sound) takes on from a persisting contact with a body whose own is
+/// `other`, carrying `normal_force` (N), the body weighing `weight` (N): the mean of the two
+/// times the share of the weight the contact carries (at most 1). An immovable body (infinite
+/// weight) takes on none; in zero gravity any pressing contact counts fully. Sum it over a
+/// body's contacts and cap at [`MAX_CONTACT_LOSS`].
+pub fn contact_loss(own: f64, other: f64, normal_force: f64, weight: f64) -> f64 {
+    if !(normal_force > 0.0) || weight.is_infinite() {
+        return 0.0;
+    }
+    let share = if weight > 0.0 {
+        (normal_force / weight).min(1.0)
+    } else {
+        1.0
+    };
+    0.5 * (own + other) * share
+}
+
+/// Whether a body's loss factor `eta` should be sent again, `sent` being the last one sent:
+/// when contact starts or ends, or it changes by more than a tenth (resting forces jitter
+/// from step to step, and each change recomputes the body's poles).
+pub fn loss_changed(eta: f64, sent: f64) -> bool {
+    (eta > 0.0) != (sent > 0.0) || (eta - sent).abs() > 0.1 * sent
 }
 
 #[cfg(test)]

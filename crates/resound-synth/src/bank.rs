@@ -20,6 +20,12 @@
 //! accumulator, summed across lanes once per block. The operations and their order do not
 //! depend on the instruction set, so all paths give identical output.
 //!
+//! **Contact inputs.** A force drives the modes through the gains of the point it acts at. Forces
+//! at different points that overlap in time (a box on two corners, an impact while it slides) each
+//! need their own gains, so the bank has [`INPUTS`] inputs, each with its own gain per mode
+//! ([`ModalBank::set_input_gains`], [`ModalBank::process_inputs`]): `z[n] = p z[n−1] + Σ_i b_i
+//! x_i[n]`. One input at a time runs the same arithmetic as [`ModalBank::process`].
+//!
 //! **Culling.** Modes are sorted by decay rate at preparation, so a chunk holds modes that fade
 //! together. A chunk whose every lane has fallen below the audibility threshold while no force
 //! arrives is zeroed and skipped until the next force.
@@ -30,6 +36,8 @@ use crate::SynthError;
 pub const LANES: usize = 16;
 /// Samples between drift corrections.
 pub const CORRECTION_PERIOD: usize = 1024;
+/// Inputs (contact points with their own gains) a bank can be driven through at once.
+pub const INPUTS: usize = 4;
 /// Samples per accumulator block.
 const BLOCK: usize = 256;
 
@@ -73,6 +81,9 @@ pub struct ModalBank {
     lanes: Vec<(f64, f64)>,
     /// Added loss factor η (contact damping): each mode decays `π f η` 1/s faster.
     extra_loss: f64,
+    /// The gains of inputs 1.. ([`ModalBank::set_input_gains`]), per chunk (input 0's are in
+    /// the chunk, next to the state the single-input path reads).
+    extra_b: Vec<[[f32; LANES]; INPUTS - 1]>,
 }
 
 /// The f32 pole `p = e^((−d + jω)T)` and the f32 drift correction `(p / p32)^period` of a mode.
@@ -123,6 +134,7 @@ impl ModalBank {
             scalar_only: false,
             lanes: Vec::with_capacity(chunks * LANES),
             extra_loss: 0.0,
+            extra_b: Vec::with_capacity(chunks),
         })
     }
 
@@ -180,6 +192,7 @@ impl ModalBank {
         }
         self.chunks.clear();
         self.lanes.clear();
+        self.extra_b.clear();
         let t = 1.0 / self.sample_rate_hz;
         let eta = self.extra_loss;
         for c in 0..n.div_ceil(LANES) {
@@ -197,6 +210,7 @@ impl ModalBank {
                 chunk.b[l] = (t * m.gain) as f32;
             }
             self.chunks.push(chunk);
+            self.extra_b.push([[0.0; LANES]; INPUTS - 1]);
         }
         self.modes = n;
         self.clock = 0;
@@ -204,13 +218,26 @@ impl ModalBank {
     }
 
     /// Sets each mode's gain (output amplitude per N·s, indexed as the modes given to
-    /// [`ModalBank::configure`]), e.g. for a new contact point. Allocation-free.
+    /// [`ModalBank::configure`]), e.g. for a new contact point: input 0's gains.
+    /// Allocation-free.
     pub fn set_gains(&mut self, gains: &[f64]) {
+        self.set_input_gains(0, gains);
+    }
+
+    /// Sets input `input`'s gain per mode (as [`Self::set_gains`]); inputs past [`INPUTS`] are
+    /// ignored. Each input starts with gains 0 except input 0, which has the configured ones.
+    /// Allocation-free.
+    pub fn set_input_gains(&mut self, input: usize, gains: &[f64]) {
         let t = 1.0 / self.sample_rate_hz;
-        for (c, chunk) in self.chunks.iter_mut().enumerate() {
-            for l in 0..LANES {
+        for (c, (chunk, extra)) in self.chunks.iter_mut().zip(&mut self.extra_b).enumerate() {
+            let b = match input {
+                0 => &mut chunk.b,
+                i if i < INPUTS => &mut extra[i - 1],
+                _ => return,
+            };
+            for (l, bl) in b.iter_mut().enumerate() {
                 if let Some(&i) = self.order.get(c * LANES + l) {
-                    chunk.b[l] = (t * gains.get(i).copied().unwrap_or(0.0)) as f32;
+                    *bl = (t * gains.get(i).copied().unwrap_or(0.0)) as f32;
                 }
             }
         }
@@ -301,34 +328,52 @@ impl ModalBank {
     /// Adds the bank's free ringing (no force) into `out`: the same as [`Self::process`] with
     /// a force of zeros. Never allocates, locks or blocks.
     pub fn ring(&mut self, out: &mut [f32]) {
-        let zeros = [0.0f32; BLOCK];
-        for o in out.chunks_mut(BLOCK) {
-            self.process(&zeros[..o.len()], o);
-        }
+        self.process_inputs(&[&[]; INPUTS], out);
     }
 
-    /// Adds the bank's response to `force` (N per sample, same length as `out`) into `out`.
-    /// Never allocates, locks or blocks.
+    /// Adds the bank's response to `force` (N per sample, same length as `out`) into `out`,
+    /// through input 0. Never allocates, locks or blocks.
     pub fn process(&mut self, force: &[f32], out: &mut [f32]) {
+        let mut forces: [&[f32]; INPUTS] = [&[]; INPUTS];
+        forces[0] = force;
         let n = force.len().min(out.len());
+        self.process_inputs(&forces, &mut out[..n]);
+    }
+
+    /// Adds the bank's response to the forces on its inputs (`forces[i]`: input `i`'s force, N
+    /// per sample, at least as long as `out`, or empty for none) into `out`. Never allocates,
+    /// locks or blocks.
+    pub fn process_inputs(&mut self, forces: &[&[f32]; INPUTS], out: &mut [f32]) {
+        let n = out.len();
         let mut start = 0;
         while start < n {
             // Segments end at block ends and at the correction grid.
             let to_grid = CORRECTION_PERIOD - self.clock % CORRECTION_PERIOD;
             let len = (n - start).min(BLOCK).min(to_grid);
-            let x = &force[start..start + len];
-            // Every sample ±0 (an OR of the bits less the sign, without early exits, so it
-            // vectorizes).
-            let silent_input = x.iter().fold(0u32, |a, &v| a | (v.to_bits() << 1)) == 0;
+            // The inputs that carry force in this segment (a silent one: every sample ±0, an
+            // OR of the bits less the sign, without early exits, so it vectorizes).
+            let mut active = [(0usize, &[] as &[f32]); INPUTS];
+            let mut k = 0;
+            for (i, f) in forces.iter().enumerate() {
+                if f.len() < start + len {
+                    continue;
+                }
+                let x = &f[start..start + len];
+                if x.iter().fold(0u32, |a, &v| a | (v.to_bits() << 1)) != 0 {
+                    active[k] = (i, x);
+                    k += 1;
+                }
+            }
             let acc = &mut self.acc[..len];
             for a in acc.iter_mut() {
                 *a = [0.0; LANES];
             }
-            let chunks = &mut self.chunks;
+            let (chunks, extra) = (&mut self.chunks, &self.extra_b);
+            let active = &active[..k];
             if self.scalar_only {
-                run_chunks(chunks, x, acc, silent_input);
+                run_chunks(chunks, extra, active, acc);
             } else {
-                pulp::Arch::new().dispatch(|| run_chunks(chunks, x, acc, silent_input));
+                pulp::Arch::new().dispatch(|| run_chunks(chunks, extra, active, acc));
             }
             for (o, a) in out[start..start + len].iter_mut().zip(acc.iter()) {
                 *o += a.iter().sum::<f32>();
@@ -360,26 +405,99 @@ impl ModalBank {
     }
 }
 
+/// Runs every chunk over one segment; `active`: the inputs with force (index, samples).
 #[inline(always)]
-fn run_chunks(chunks: &mut [Chunk], x: &[f32], acc: &mut [[f32; LANES]], silent_input: bool) {
-    for c in chunks.iter_mut() {
+fn run_chunks(
+    chunks: &mut [Chunk],
+    extra: &[[[f32; LANES]; INPUTS - 1]],
+    active: &[(usize, &[f32])],
+    acc: &mut [[f32; LANES]],
+) {
+    let gains = |c: &Chunk, e: &[[f32; LANES]; INPUTS - 1], i: usize| {
+        if i == 0 {
+            c.b
+        } else {
+            e[i - 1]
+        }
+    };
+    for (c, e) in chunks.iter_mut().zip(extra) {
         if !c.active {
-            if silent_input {
+            if active.is_empty() {
                 continue;
             }
             c.active = true;
         }
-        run_chunk(c, x, acc);
+        match active {
+            [] => run_chunk(c, [0.0; LANES], None, acc),
+            [(i, x)] => {
+                let b = gains(c, e, *i);
+                run_chunk(c, b, Some(x), acc);
+            }
+            _ => {
+                let mut b = [[0.0; LANES]; INPUTS];
+                for (bk, (i, _)) in b.iter_mut().zip(active) {
+                    *bk = gains(c, e, *i);
+                }
+                run_chunk_inputs(c, &b[..active.len()], active, acc);
+            }
+        }
     }
 }
 
+/// One chunk over a segment driven through one input (`x`: its force; none: free ringing).
 #[inline(always)]
-fn run_chunk(c: &mut Chunk, x: &[f32], acc: &mut [[f32; LANES]]) {
+fn run_chunk(c: &mut Chunk, b: [f32; LANES], x: Option<&[f32]>, acc: &mut [[f32; LANES]]) {
     let (mut zr, mut zi) = (c.zr, c.zi);
-    let (pr, pi, b) = (c.pr, c.pi, c.b);
-    for (&xn, a) in x.iter().zip(acc.iter_mut()) {
+    let (pr, pi) = (c.pr, c.pi);
+    match x {
+        Some(x) => {
+            for (&xn, a) in x.iter().zip(acc.iter_mut()) {
+                for l in 0..LANES {
+                    let r = pr[l] * zr[l] - pi[l] * zi[l] + b[l] * xn;
+                    let i = pr[l] * zi[l] + pi[l] * zr[l];
+                    zr[l] = r;
+                    zi[l] = i;
+                    a[l] += i;
+                }
+            }
+        }
+        None => {
+            for a in acc.iter_mut() {
+                for l in 0..LANES {
+                    let r = pr[l] * zr[l] - pi[l] * zi[l];
+                    let i = pr[l] * zi[l] + pi[l] * zr[l];
+                    zr[l] = r;
+                    zi[l] = i;
+                    a[l] += i;
+                }
+            }
+        }
+    }
+    c.zr = zr;
+    c.zi = zi;
+}
+
+/// One chunk over a segment driven through several inputs at once (`b[k]`: the gains of
+/// `active[k]`).
+#[inline(always)]
+fn run_chunk_inputs(
+    c: &mut Chunk,
+    b: &[[f32; LANES]],
+    active: &[(usize, &[f32])],
+    acc: &mut [[f32; LANES]],
+) {
+    let (mut zr, mut zi) = (c.zr, c.zi);
+    let (pr, pi) = (c.pr, c.pi);
+    for (n, a) in acc.iter_mut().enumerate() {
+        let mut u = [0.0f32; LANES];
+        for (bk, (_, x)) in b.iter().zip(active) {
+            let xn = x[n];
+            for l in 0..LANES {
+                u[l] += bk[l] * xn;
+            }
+        }
         for l in 0..LANES {
-            let r = pr[l] * zr[l] - pi[l] * zi[l] + b[l] * xn;
+            let r = pr[l] * zr[l] - pi[l] * zi[l] + u[l];
             let i = pr[l] * zi[l] + pi[l] * zr[l];
             zr[l] = r;
             zi[l] = i;

@@ -5,11 +5,15 @@
 //! allocate, lock or block, so they can run in an audio callback (tested with
 //! `assert_no_alloc`).
 //!
+//! A voice is driven through up to [`EngineParams::inputs`] contact inputs, each with its own
+//! gains ([`Engine::excite_at`]): forces at different points of one object that overlap in time
+//! each sound through the gains of their own point.
+//!
 //! When every voice is busy, starting another steals the voice with the lowest priority: its
 //! current level (Σ |mode amplitude|) times the caller's importance — the quietest sound goes,
 //! as Raghuvanshi & Lin prioritise modes by their audible contribution.
 
-use crate::bank::{BankMode, ModalBank};
+use crate::bank::{BankMode, ModalBank, INPUTS};
 use crate::SynthError;
 
 /// Identifies a started voice; stale once the voice is stolen or ends.
@@ -22,10 +26,18 @@ pub struct VoiceId {
 #[derive(Debug)]
 struct Voice {
     bank: ModalBank,
-    /// Pending force (N per sample), a ring starting at `head`.
+    /// Pending force (N per sample) of each input, rings of the force capacity one after the
+    /// other, starting at `head`.
     force: Vec<f32>,
+    /// Length of one input's ring (the force capacity).
+    cap: usize,
     head: usize,
+    /// Samples of force still to come (the longest of the inputs').
     pending: usize,
+    /// Samples of force still to come on each input.
+    input_pending: [usize; INPUTS],
+    /// The key (a contact point) each input's gains belong to ([`Engine::excite_at`]).
+    keys: [u32; INPUTS],
     importance: f32,
     generation: u64,
     busy: bool,
@@ -35,6 +47,74 @@ struct Voice {
     tag: usize,
     /// Fading out over the next block (stolen by the voice budget), then silenced.
     fading: bool,
+}
+
+/// No contact point yet.
+const NO_KEY: u32 = u32::MAX;
+
+impl Voice {
+    /// Drops every scheduled force.
+    fn clear_force(&mut self) {
+        let cap = self.cap;
+        for (i, &p) in self.input_pending.iter().enumerate() {
+            let Some(ring) = self.force.get_mut(i * cap..(i + 1) * cap) else {
+                continue;
+            };
+            for k in 0..p.min(cap) {
+                ring[(self.head + k) % cap] = 0.0;
+            }
+        }
+        self.pending = 0;
+        self.input_pending = [0; INPUTS];
+        self.keys = [NO_KEY; INPUTS];
+    }
+
+    /// Adds `force × scale` to input `input`'s ring from `delay` samples on; what does not fit
+    /// is cut off. Returns the samples scheduled.
+    fn schedule(&mut self, input: usize, force: &[f32], scale: f64, delay: usize) -> usize {
+        let cap = self.cap;
+        let Some(ring) = self.force.get_mut(input * cap..(input + 1) * cap) else {
+            return 0;
+        };
+        let len = force.len().min(cap.saturating_sub(delay));
+        for (n, &f) in force[..len].iter().enumerate() {
+            ring[(self.head + delay + n) % cap] += (f64::from(f) * scale) as f32;
+        }
+        self.input_pending[input] = self.input_pending[input].max(delay + len);
+        self.pending = self.pending.max(delay + len);
+        len
+    }
+
+    /// Moves the next `n` samples of each input that has force coming into `scratch` (input `i`
+    /// at `i × stride`), clears them from the rings and advances the clock. Returns the forces
+    /// (empty for an input with none).
+    fn take<'a>(&mut self, n: usize, scratch: &'a mut [f32], stride: usize) -> [&'a [f32]; INPUTS] {
+        let cap = self.cap;
+        let mut forces: [&[f32]; INPUTS] = [&[]; INPUTS];
+        let mut rest = scratch;
+        for (i, f) in forces.iter_mut().enumerate() {
+            let at = stride.min(rest.len());
+            let (mine, next) = std::mem::take(&mut rest).split_at_mut(at);
+            rest = next;
+            if self.input_pending[i] == 0 {
+                continue;
+            }
+            let Some(ring) = self.force.get_mut(i * cap..(i + 1) * cap) else {
+                continue;
+            };
+            let x = &mut mine[..n];
+            for (k, xk) in x.iter_mut().enumerate() {
+                let j = (self.head + k) % cap;
+                *xk = ring[j];
+                ring[j] = 0.0;
+            }
+            self.input_pending[i] = self.input_pending[i].saturating_sub(n);
+            *f = x;
+        }
+        self.head = (self.head + n) % cap;
+        self.pending = self.pending.saturating_sub(n);
+        forces
+    }
 }
 
 /// Settings of [`Engine::new`].
@@ -48,6 +128,10 @@ pub struct EngineParams {
     pub modes_per_voice: usize,
     /// Longest force pulse that can be scheduled ahead, samples.
     pub force_capacity: usize,
+    /// Contact inputs per voice, 1..=[`INPUTS`]: forces at this many points of one object can
+    /// overlap in time, each through its own gains ([`Engine::excite_at`]). Each input holds a
+    /// force ring of the force capacity.
+    pub inputs: usize,
     /// Modes quieter than this (output amplitude) with no force coming are culled.
     pub cull_level: f32,
     /// Longest block [`Engine::process`] and [`Engine::process_voices`] render at once (longer
@@ -62,6 +146,7 @@ impl Default for EngineParams {
             voices: 16,
             modes_per_voice: 256,
             force_capacity: 48_000,
+            inputs: 1,
             cull_level: 1e-6,
             max_block: crate::MAX_BLOCK,
         }
@@ -96,6 +181,12 @@ impl Engine {
         if params.force_capacity == 0 {
             return Err(SynthError::Parameter("force capacity must be > 0".into()));
         }
+        if !(1..=INPUTS).contains(&params.inputs) {
+            return Err(SynthError::Parameter(format!(
+                "inputs must be in 1..={INPUTS}, got {}",
+                params.inputs
+            )));
+        }
         if params.max_block == 0 || params.max_block > 1 << 20 {
             return Err(SynthError::Parameter(format!(
                 "max block must be in 1..=1048576 samples, got {}",
@@ -111,9 +202,12 @@ impl Engine {
                     params.modes_per_voice,
                     params.cull_level,
                 )?,
-                force: vec![0.0; params.force_capacity],
+                force: vec![0.0; params.force_capacity * params.inputs],
+                cap: params.force_capacity,
                 head: 0,
                 pending: 0,
+                input_pending: [0; INPUTS],
+                keys: [NO_KEY; INPUTS],
                 importance: 1.0,
                 generation: 0,
                 busy: false,
@@ -124,7 +218,7 @@ impl Engine {
         }
         Ok(Self {
             voices,
-            scratch: vec![0.0; params.max_block],
+            scratch: vec![0.0; params.max_block * params.inputs],
             out: vec![0.0; params.max_block],
             generation: 0,
             budget: usize::MAX,
@@ -247,8 +341,7 @@ impl Engine {
         let v = &mut self.voices[slot];
         v.bank.configure(modes)?;
         v.head = 0;
-        v.pending = 0;
-        v.force.iter_mut().for_each(|f| *f = 0.0);
+        v.clear_force();
         v.importance = importance.max(0.0);
         self.generation += 1;
         v.generation = self.generation;
@@ -268,42 +361,57 @@ impl Engine {
         v.busy && v.generation == id.generation
     }
 
-    /// Schedules `force` (N per sample) on voice `id`, starting `delay` samples after the start
-    /// of the next block. Forces add up. Returns false if the voice is gone or the pulse does not
+    /// Schedules `force` (N per sample) on voice `id` through input 0 (the gains the voice was
+    /// started with, or [`Engine::set_gains`]'), starting `delay` samples after the start of
+    /// the next block. Forces add up. Returns false if the voice is gone or the pulse does not
     /// fit the force capacity.
     pub fn excite(&mut self, id: VoiceId, force: &[f32], delay: usize) -> bool {
-        if !self.is_alive(id) {
+        if !self.is_alive(id) || delay + force.len() > self.params.force_capacity {
             return false;
         }
-        let v = &mut self.voices[id.slot];
-        let cap = v.force.len();
-        if delay + force.len() > cap {
-            return false;
-        }
-        for (i, &f) in force.iter().enumerate() {
-            let k = (v.head + delay + i) % cap;
-            v.force[k] += f;
-        }
-        v.pending = v.pending.max(delay + force.len());
-        true
+        self.voices[id.slot].schedule(0, force, 1.0, delay) == force.len()
     }
 
-    /// Adds `force × scale` (N per sample; the product in f64) to voice `id` from `delay`
-    /// samples after the start of the next block on; what does not fit the force capacity is
-    /// cut off. Returns the samples scheduled (0 if the voice is gone).
+    /// Adds `force × scale` (N per sample; the product in f64) to voice `id` through input 0
+    /// from `delay` samples after the start of the next block on; what does not fit the force
+    /// capacity is cut off. Returns the samples scheduled (0 if the voice is gone).
     pub fn excite_scaled(&mut self, id: VoiceId, force: &[f32], scale: f64, delay: usize) -> usize {
         if !self.is_alive(id) {
             return 0;
         }
-        let v = &mut self.voices[id.slot];
-        let cap = v.force.len();
-        let len = force.len().min(cap.saturating_sub(delay));
-        for (n, &f) in force[..len].iter().enumerate() {
-            let idx = (v.head + delay + n) % cap;
-            v.force[idx] += (f64::from(f) * scale) as f32;
+        self.voices[id.slot].schedule(0, force, scale, delay)
+    }
+
+    /// Adds `force × scale` (as [`Engine::excite_scaled`]) acting at contact point `key` (a
+    /// vertex), whose per-mode `gains` (indexed as the voice's modes) it sounds through. The
+    /// force takes the input that already carries `key`, else a free one, so forces at
+    /// different points that overlap in time keep their own gains; when every input is busy
+    /// with other points, the one whose force ends first takes the new point's gains (what is
+    /// left of its force sounds through them). Returns the samples scheduled (0 if the voice
+    /// is gone). Never allocates.
+    pub fn excite_at(
+        &mut self,
+        id: VoiceId,
+        key: u32,
+        gains: &[f64],
+        force: &[f32],
+        scale: f64,
+        delay: usize,
+    ) -> usize {
+        if !self.is_alive(id) {
+            return 0;
         }
-        v.pending = v.pending.max(delay + len);
-        len
+        let inputs = self.params.inputs;
+        let v = &mut self.voices[id.slot];
+        let busy = |i: &usize| v.input_pending[*i] > 0;
+        let input = (0..inputs)
+            .find(|i| busy(i) && v.keys[*i] == key)
+            .or_else(|| (0..inputs).find(|i| !busy(i)))
+            .or_else(|| (0..inputs).min_by_key(|&i| v.input_pending[i]))
+            .unwrap_or(0);
+        v.keys[input] = key;
+        v.bank.set_input_gains(input, gains);
+        v.schedule(input, force, scale, delay)
     }
 
     /// Gives voice `id` new modes (at most the voice's capacity), silent until its next
@@ -317,8 +425,7 @@ impl Engine {
         if v.bank.configure(modes).is_err() {
             return false;
         }
-        v.pending = 0;
-        v.force.iter_mut().for_each(|f| *f = 0.0);
+        v.clear_force();
         v.fading = false;
         true
     }
@@ -333,7 +440,8 @@ impl Engine {
         true
     }
 
-    /// Changes a voice's per-mode gains (a moving contact).
+    /// Changes a voice's per-mode gains on input 0 (a moving contact; forces already
+    /// scheduled on input 0 sound through them too — [`Engine::excite_at`] keeps each point's).
     pub fn set_gains(&mut self, id: VoiceId, gains: &[f64]) -> bool {
         if !self.is_alive(id) {
             return false;
@@ -350,21 +458,13 @@ impl Engine {
         for block in out.chunks_mut(max_block) {
             let n = block.len();
             for v in self.voices.iter_mut().filter(|v| v.busy) {
-                let cap = v.force.len();
                 // A silent attached voice waits for its next excitation (its force clock runs on).
                 if v.pinned && v.pending == 0 && v.bank.is_silent() {
-                    v.head = (v.head + n) % cap;
+                    v.head = (v.head + n) % v.cap;
                     continue;
                 }
-                let x = &mut self.scratch[..n];
-                for (i, xi) in x.iter_mut().enumerate() {
-                    let k = (v.head + i) % cap;
-                    *xi = v.force[k];
-                    v.force[k] = 0.0;
-                }
-                v.head = (v.head + n) % cap;
-                v.pending = v.pending.saturating_sub(n);
-                v.bank.process(x, block);
+                let forces = v.take(n, &mut self.scratch, max_block);
+                v.bank.process_inputs(&forces, block);
                 if v.pending == 0 && v.bank.is_silent() && !v.pinned {
                     v.busy = false;
                 }
@@ -387,25 +487,17 @@ impl Engine {
                 self.enforce_budget();
             }
             for v in self.voices.iter_mut().filter(|v| v.busy) {
-                let cap = v.force.len();
                 if v.pending == 0 && v.bank.is_silent() {
-                    v.head = (v.head + len) % cap;
+                    v.head = (v.head + len) % v.cap;
                     if !v.pinned {
                         v.busy = false;
                     }
                     continue;
                 }
-                v.pending = v.pending.saturating_sub(len);
-                let x = &mut self.scratch[..len];
-                for (i, xi) in x.iter_mut().enumerate() {
-                    let k = (v.head + i) % cap;
-                    *xi = v.force[k];
-                    v.force[k] = 0.0;
-                }
-                v.head = (v.head + len) % cap;
+                let forces = v.take(len, &mut self.scratch, max_block);
                 let out = &mut self.out[..len];
                 out.fill(0.0);
-                v.bank.process(x, out);
+                v.bank.process_inputs(&forces, out);
                 if v.fading {
                     // Stolen: a linear fade over this block (no step), then silence.
                     let step = 1.0 / len as f32;
@@ -413,10 +505,7 @@ impl Engine {
                         *o *= 1.0 - (i + 1) as f32 * step;
                     }
                     v.bank.reset();
-                    for k in 0..v.pending.min(cap) {
-                        v.force[(v.head + k) % cap] = 0.0;
-                    }
-                    v.pending = 0;
+                    v.clear_force();
                     v.fading = false;
                     if !v.pinned {
                         v.busy = false;

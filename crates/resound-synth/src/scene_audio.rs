@@ -383,6 +383,7 @@ pub fn scene_audio(
             .unwrap_or(0)
             .max(1),
         force_capacity: params.force_capacity,
+        inputs: crate::bank::INPUTS,
         cull_level: params.cull_level,
         max_block: params.max_block,
     })?;
@@ -631,12 +632,13 @@ impl SceneAudio {
                                 *g *= f64::from(f);
                             }
                         }
-                        self.engine.set_gains(id, &self.gains[..m]);
+                        // Each contact point keeps its own gains while its force sounds.
                         let (a, b) = chunk.as_slices();
                         let d = (delay as usize).saturating_sub(late);
-                        self.engine.excite_scaled(id, a, scale, d);
+                        let g = &self.gains[..m];
+                        self.engine.excite_at(id, vertex, g, a, scale, d);
                         if !b.is_empty() {
-                            self.engine.excite_scaled(id, b, scale, d + a.len());
+                            self.engine.excite_at(id, vertex, g, b, scale, d + a.len());
                         }
                         true
                     }

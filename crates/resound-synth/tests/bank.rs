@@ -325,3 +325,76 @@ fn contact_damping_speeds_the_decay_by_pi_f_eta_without_a_step_and_undoes_exactl
     assert!(x == y, "the undone poles differ");
     assert_eq!(c.extra_loss(), 0.0);
 }
+
+/// Renders `n` samples of voice forces on a fresh engine with `inputs` contact inputs:
+/// `(key, gains, force, delay)` each through [`Engine::excite_at`].
+fn render_contacts(
+    inputs: usize,
+    contacts: &[(u32, Vec<f64>, Vec<f32>, usize)],
+    n: usize,
+) -> Vec<f32> {
+    let mut engine = Engine::new(EngineParams {
+        voices: 1,
+        modes_per_voice: 64,
+        force_capacity: 4800,
+        inputs,
+        max_block: 256,
+        ..Default::default()
+    })
+    .unwrap();
+    let id = engine.attach(&modes(), 0).unwrap();
+    let mut out = vec![0.0f32; n];
+    assert_no_alloc(|| {
+        for (key, gains, force, delay) in contacts {
+            assert_eq!(
+                engine.excite_at(id, *key, gains, force, 1.0, *delay),
+                force.len()
+            );
+        }
+        engine.process(&mut out);
+    });
+    out
+}
+
+#[test]
+fn forces_at_two_points_that_overlap_each_sound_through_their_own_gains() {
+    let m = modes();
+    // Point A: the modes' own gains; point B: other signs and a node (mode 2 silent there).
+    let ga: Vec<f64> = m.iter().map(|x| x.gain).collect();
+    let gb: Vec<f64> = (0..m.len())
+        .map(|i| match i {
+            2 => 0.0,
+            i if i % 2 == 0 => -0.6,
+            _ => 0.9,
+        })
+        .collect();
+    // A sliding force at B over 400 samples; an impact at A in the middle of it.
+    let slide: Vec<f32> = (0..400)
+        .map(|i| ((i * 7919) % 13) as f32 / 13.0 - 0.46)
+        .collect();
+    let hit = vec![2.0f32; 30];
+    let a = (7, ga.clone(), hit.clone(), 150);
+    let b = (3, gb.clone(), slide.clone(), 0);
+    let n = 3000;
+    let both = render_contacts(4, &[b.clone(), a.clone()], n);
+    // Linearity: the sum of each alone, through its own gains.
+    let alone_a = render_contacts(4, std::slice::from_ref(&a), n);
+    let alone_b = render_contacts(4, std::slice::from_ref(&b), n);
+    let peak = both.iter().fold(0.0f32, |p, x| p.max(x.abs()));
+    let err = both
+        .iter()
+        .zip(alone_a.iter().zip(&alone_b))
+        .fold(0.0f32, |e, (y, (p, q))| e.max((y - p - q).abs()));
+    assert!(
+        peak > 0.0 && err <= 1e-5 * peak,
+        "error {err} of peak {peak}"
+    );
+    // One input cannot hold both: the impact, coming second, re-weights the sliding force still
+    // pending (the old behaviour), which this test would catch.
+    let one = render_contacts(1, &[b, a], n);
+    let off = one
+        .iter()
+        .zip(&both)
+        .fold(0.0f32, |e, (y, z)| e.max((y - z).abs()));
+    assert!(off > 0.05 * peak, "one input: {off} of peak {peak}");
+}

@@ -9,8 +9,9 @@ use tracker::*;
 use vertex_grid::*;
 
 use crate::contact::{
-    classify_persistent, impact_pulse, is_impact, radius_from_extents, scene_profile, ContactBody,
-    ContactKind, PairContact, SILENT_ELASTIC,
+    classify_persistent, contact_loss, impact_pulse, is_impact, is_leaving, loss_changed,
+    radius_from_extents, scene_profile, ContactBody, ContactKind, PairContact, MAX_CONTACT_LOSS,
+    SILENT_ELASTIC,
 };
 use crate::{BodySpec, SceneError, SceneParams, Shape};
 use rapier3d::parry::query::distance;
@@ -488,7 +489,7 @@ impl ScenePhysics {
                 eta
             }
             .min(MAX_CONTACT_LOSS);
-            if (eta > 0.0) == (*sent > 0.0) && (eta - *sent).abs() <= 0.1 * *sent {
+            if !loss_changed(eta, *sent) {
                 continue;
             }
             if tx.send(Cue::Damping {

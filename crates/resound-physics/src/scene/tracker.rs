@@ -64,31 +64,6 @@ impl StepContacts {
     }
 }
 
-/// Most contact loss factor a body takes on, however many contacts it has.
-pub(super) const MAX_CONTACT_LOSS: f64 = 0.2;
-
-/// The loss factor body `a` takes on from a persisting contact with `b` carrying
-/// `normal_force` (N), `a` weighing `weight` (N): the pair's loss factor (the mean of the two
-/// bodies', [`crate::DEFAULT_CONTACT_LOSS`] for a silent one) times the share of `a`'s weight
-/// the contact carries (at most 1). An immovable body (infinite weight) takes on none; in
-/// zero gravity any pressing contact counts fully.
-pub(super) fn contact_loss(a: &BodySpec, b: &BodySpec, normal_force: f64, weight: f64) -> f64 {
-    let own = |x: &BodySpec| {
-        x.sound
-            .as_ref()
-            .map_or(crate::DEFAULT_CONTACT_LOSS, |s| s.contact_loss)
-    };
-    if !(normal_force > 0.0) || weight.is_infinite() {
-        return 0.0;
-    }
-    let share = if weight > 0.0 {
-        (normal_force / weight).min(1.0)
-    } else {
-        1.0
-    };
-    0.5 * (own(a) + own(b)) * share
-}
-
 /// Classifies rapier's contact pairs after each step — impacts (timed within the step, shaped
 /// by Hertz, carrying the solver impulse), sliding, rolling, resting — and turns them into
 /// [`Excitation`]s with the shared contact model ([`crate::contact`]).
@@ -236,8 +211,22 @@ impl ContactTracker {
                     });
                 }
             } else {
-                // Persistent contact: sliding, rolling or resting.
+                // Persistent contact: sliding, rolling or resting (or an impact's rebound,
+                // which does neither).
                 let normal_force = impulse / dt;
+                // Leaving: the bodies' centres part along the normal (a point's velocity on a
+                // spinning body would mistake the contact point's offset for motion).
+                let centre = |i: usize| {
+                    if bodies[i].fixed {
+                        Vector::ZERO
+                    } else {
+                        world.bodies[handles[i]].linvel()
+                    }
+                };
+                if is_leaving(f64::from((centre(i1) - centre(i2)).dot(normal))) {
+                    now_active.insert(key, state);
+                    continue;
+                }
                 let g = f64::from(world.gravity.length());
                 for (i, j) in [(i1, i2), (i2, i1)] {
                     let weight = if bodies[i].fixed {
@@ -245,7 +234,13 @@ impl ContactTracker {
                     } else {
                         f64::from(world.bodies[handles[i]].mass()) * g
                     };
-                    out.loss[i] += contact_loss(&bodies[i], &bodies[j], normal_force, weight);
+                    let own = |x: &BodySpec| {
+                        x.sound
+                            .as_ref()
+                            .map_or(crate::DEFAULT_CONTACT_LOSS, |s| s.contact_loss)
+                    };
+                    out.loss[i] +=
+                        contact_loss(own(&bodies[i]), own(&bodies[j]), normal_force, weight);
                 }
                 let v_rel = vel_at(i1, true) - vel_at(i2, true);
                 let v_t = v_rel - normal * v_rel.dot(normal);
