@@ -328,16 +328,43 @@ impl ModalBank {
     /// Adds the bank's free ringing (no force) into `out`: the same as [`Self::process`] with
     /// a force of zeros. Never allocates, locks or blocks.
     pub fn ring(&mut self, out: &mut [f32]) {
-        self.process_inputs(&[&[]; INPUTS], out);
+        for o in out.chunks_mut(BLOCK) {
+            self.process(&ZEROS[..o.len()], o);
+        }
     }
 
     /// Adds the bank's response to `force` (N per sample, same length as `out`) into `out`,
     /// through input 0. Never allocates, locks or blocks.
     pub fn process(&mut self, force: &[f32], out: &mut [f32]) {
-        let mut forces: [&[f32]; INPUTS] = [&[]; INPUTS];
-        forces[0] = force;
         let n = force.len().min(out.len());
-        self.process_inputs(&forces, &mut out[..n]);
+        let mut start = 0;
+        while start < n {
+            // Segments end at block ends and at the correction grid.
+            let to_grid = CORRECTION_PERIOD - self.clock % CORRECTION_PERIOD;
+            let len = (n - start).min(BLOCK).min(to_grid);
+            let x = &force[start..start + len];
+            // Every sample ±0 (an OR of the bits less the sign, without early exits, so it
+            // vectorizes).
+            let silent_input = x.iter().fold(0u32, |a, &v| a | (v.to_bits() << 1)) == 0;
+            let acc = &mut self.acc[..len];
+            for a in acc.iter_mut() {
+                *a = [0.0; LANES];
+            }
+            let chunks = &mut self.chunks;
+            if self.scalar_only {
+                run_chunks_one(chunks, x, acc, silent_input);
+            } else {
+                pulp::Arch::new().dispatch(|| run_chunks_one(chunks, x, acc, silent_input));
+            }
+            for (o, a) in out[start..start + len].iter_mut().zip(acc.iter()) {
+                *o += a.iter().sum::<f32>();
+            }
+            self.clock += len;
+            if self.clock.is_multiple_of(CORRECTION_PERIOD) {
+                self.correct_and_cull();
+            }
+            start += len;
+        }
     }
 
     /// Adds the bank's response to the forces on its inputs (`forces[i]`: input `i`'s force, N
@@ -405,6 +432,38 @@ impl ModalBank {
     }
 }
 
+/// The single-input path ([`ModalBank::process`]): input 0's gains, kept apart from the
+/// several-input one so the common case runs exactly this loop.
+#[inline(always)]
+fn run_chunks_one(chunks: &mut [Chunk], x: &[f32], acc: &mut [[f32; LANES]], silent_input: bool) {
+    for c in chunks.iter_mut() {
+        if !c.active {
+            if silent_input {
+                continue;
+            }
+            c.active = true;
+        }
+        run_chunk_one(c, x, acc);
+    }
+}
+
+#[inline(always)]
+fn run_chunk_one(c: &mut Chunk, x: &[f32], acc: &mut [[f32; LANES]]) {
+    let (mut zr, mut zi) = (c.zr, c.zi);
+    let (pr, pi, b) = (c.pr, c.pi, c.b);
+    for (&xn, a) in x.iter().zip(acc.iter_mut()) {
+        for l in 0..LANES {
+            let r = pr[l] * zr[l] - pi[l] * zi[l] + b[l] * xn;
+            let i = pr[l] * zi[l] + pi[l] * zr[l];
+            zr[l] = r;
+            zi[l] = i;
+            a[l] += i;
+        }
+    }
+    c.zr = zr;
+    c.zi = zi;
+}
+
 /// Runs every chunk over one segment; `active`: the inputs with force (index, samples).
 #[inline(always)]
 fn run_chunks(
@@ -420,20 +479,25 @@ fn run_chunks(
             e[i - 1]
         }
     };
-    for (c, e) in chunks.iter_mut().zip(extra) {
-        if !c.active {
-            if active.is_empty() {
-                continue;
+    match active {
+        // Free ringing: the chunks still sounding, with a zero force.
+        [] => {
+            let zeros = &ZEROS[..acc.len()];
+            for c in chunks.iter_mut().filter(|c| c.active) {
+                let b = c.b;
+                run_chunk(c, b, zeros, acc);
             }
-            c.active = true;
         }
-        match active {
-            [] => run_chunk(c, [0.0; LANES], None, acc),
-            [(i, x)] => {
+        [(i, x)] => {
+            for (c, e) in chunks.iter_mut().zip(extra) {
+                c.active = true;
                 let b = gains(c, e, *i);
-                run_chunk(c, b, Some(x), acc);
+                run_chunk(c, b, x, acc);
             }
-            _ => {
+        }
+        _ => {
+            for (c, e) in chunks.iter_mut().zip(extra) {
+                c.active = true;
                 let mut b = [[0.0; LANES]; INPUTS];
                 for (bk, (i, _)) in b.iter_mut().zip(active) {
                     *bk = gains(c, e, *i);
@@ -444,33 +508,21 @@ fn run_chunks(
     }
 }
 
-/// One chunk over a segment driven through one input (`x`: its force; none: free ringing).
+/// A segment of zero force.
+static ZEROS: [f32; BLOCK] = [0.0; BLOCK];
+
+/// One chunk over a segment driven through one input with gains `b`.
 #[inline(always)]
-fn run_chunk(c: &mut Chunk, b: [f32; LANES], x: Option<&[f32]>, acc: &mut [[f32; LANES]]) {
+fn run_chunk(c: &mut Chunk, b: [f32; LANES], x: &[f32], acc: &mut [[f32; LANES]]) {
     let (mut zr, mut zi) = (c.zr, c.zi);
     let (pr, pi) = (c.pr, c.pi);
-    match x {
-        Some(x) => {
-            for (&xn, a) in x.iter().zip(acc.iter_mut()) {
-                for l in 0..LANES {
-                    let r = pr[l] * zr[l] - pi[l] * zi[l] + b[l] * xn;
-                    let i = pr[l] * zi[l] + pi[l] * zr[l];
-                    zr[l] = r;
-                    zi[l] = i;
-                    a[l] += i;
-                }
-            }
-        }
-        None => {
-            for a in acc.iter_mut() {
-                for l in 0..LANES {
-                    let r = pr[l] * zr[l] - pi[l] * zi[l];
-                    let i = pr[l] * zi[l] + pi[l] * zr[l];
-                    zr[l] = r;
-                    zi[l] = i;
-                    a[l] += i;
-                }
-            }
+    for (&xn, a) in x.iter().zip(acc.iter_mut()) {
+        for l in 0..LANES {
+            let r = pr[l] * zr[l] - pi[l] * zi[l] + b[l] * xn;
+            let i = pr[l] * zi[l] + pi[l] * zr[l];
+            zr[l] = r;
+            zi[l] = i;
+            a[l] += i;
         }
     }
     c.zr = zr;

@@ -49,6 +49,19 @@ struct Voice {
     fading: bool,
 }
 
+/// Renders a voice's block: through input 0 alone on the bank's single-input path (the common
+/// case), else through every input that carries force.
+fn render(bank: &mut ModalBank, forces: &[&[f32]; INPUTS], out: &mut [f32]) {
+    if forces[1..].iter().all(|f| f.is_empty()) {
+        match forces[0] {
+            [] => bank.ring(out),
+            x => bank.process(x, out),
+        }
+    } else {
+        bank.process_inputs(forces, out);
+    }
+}
+
 /// No contact point yet.
 const NO_KEY: u32 = u32::MAX;
 
@@ -464,7 +477,7 @@ impl Engine {
                     continue;
                 }
                 let forces = v.take(n, &mut self.scratch, max_block);
-                v.bank.process_inputs(&forces, block);
+                render(&mut v.bank, &forces, block);
                 if v.pending == 0 && v.bank.is_silent() && !v.pinned {
                     v.busy = false;
                 }
@@ -497,7 +510,7 @@ impl Engine {
                 let forces = v.take(len, &mut self.scratch, max_block);
                 let out = &mut self.out[..len];
                 out.fill(0.0);
-                v.bank.process_inputs(&forces, out);
+                render(&mut v.bank, &forces, out);
                 if v.fading {
                     // Stolen: a linear fade over this block (no step), then silence.
                     let step = 1.0 / len as f32;
