@@ -63,6 +63,7 @@ pub fn play(strike: &Strike, gain: f32, sample_rate: u32, seconds: f64) -> Resul
         voices: 1,
         modes_per_voice: strike.modes.len().max(1),
         force_capacity: strike.force.len().max(1),
+        inputs: 1,
         cull_level: 1e-7,
         max_block: 8192,
     })?;
