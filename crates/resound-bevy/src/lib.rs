@@ -618,12 +618,7 @@ fn excite(
         } else {
             // Contact damping, as offline: each sounding side takes on a share of the pair's
             // loss factor.
-            for (t, (me, other)) in targets.iter().zip([(&a, &b), (&b, &a)]) {
-                if let Some(l) = t.and_then(|i| link.loss.get_mut(i as usize)) {
-                    let weight = me.contact.mass_kg * gravity;
-                    *l += contact_loss(me.loss, other.loss, normal_force, weight);
-                }
-            }
+            add_loss(&mut link.loss, targets, [&a, &b], normal_force, gravity);
             // The contact points' velocities, each at its contact radius along the normal.
             let at_contact = |s: &Side, r: Vec3| s.linvel + s.angvel.cross(r);
             let va = at_contact(&a, n * a.contact.radius_m as f32);
@@ -682,17 +677,8 @@ fn excite(
         else {
             continue;
         };
-        for (e, (me, other)) in [key.0, key.1].into_iter().zip([(&a, &b), (&b, &a)]) {
-            let t = link.source_of.get(&e).copied();
-            if let Some(l) = t.and_then(|i| link.loss.get_mut(i as usize)) {
-                *l += contact_loss(
-                    me.loss,
-                    other.loss,
-                    normal_force,
-                    me.contact.mass_kg * gravity,
-                );
-            }
-        }
+        let targets = [key.0, key.1].map(|e| link.source_of.get(&e).copied());
+        add_loss(&mut link.loss, targets, [&a, &b], normal_force, gravity);
         now.insert(key, (pair, normal_force));
     }
     link.spare = std::mem::replace(&mut link.touching, now);
@@ -766,6 +752,24 @@ type BodyParts = (
     Option<&'static ColliderMassProperties>,
     Option<&'static Sounding>,
 );
+
+/// Adds a pair's contact damping ([`contact_loss`]) to each sounding side's loss factor
+/// (`targets`: the sides' sources).
+fn add_loss(
+    loss: &mut [f64],
+    targets: [Option<u32>; 2],
+    sides: [&Side; 2],
+    normal_force: f64,
+    gravity: f64,
+) {
+    for (k, t) in targets.iter().enumerate() {
+        let (me, other) = (sides[k], sides[1 - k]);
+        if let Some(l) = t.and_then(|i| loss.get_mut(i as usize)) {
+            let weight = me.contact.mass_kg * gravity;
+            *l += contact_loss(me.loss, other.loss, normal_force, weight);
+        }
+    }
+}
 
 /// One side of a contact: what the shared contact model needs, and its motion.
 struct Side {

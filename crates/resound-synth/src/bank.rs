@@ -337,71 +337,63 @@ impl ModalBank {
     /// through input 0. Never allocates, locks or blocks.
     pub fn process(&mut self, force: &[f32], out: &mut [f32]) {
         let n = force.len().min(out.len());
-        let mut start = 0;
-        while start < n {
-            // Segments end at block ends and at the correction grid.
-            let to_grid = CORRECTION_PERIOD - self.clock % CORRECTION_PERIOD;
-            let len = (n - start).min(BLOCK).min(to_grid);
-            let x = &force[start..start + len];
-            // Every sample ±0 (an OR of the bits less the sign, without early exits, so it
-            // vectorizes).
-            let silent_input = x.iter().fold(0u32, |a, &v| a | (v.to_bits() << 1)) == 0;
-            let acc = &mut self.acc[..len];
-            for a in acc.iter_mut() {
-                *a = [0.0; LANES];
-            }
-            let chunks = &mut self.chunks;
-            if self.scalar_only {
+        let scalar = self.scalar_only;
+        self.segments(&mut out[..n], |chunks, _, acc, start| {
+            let x = &force[start..start + acc.len()];
+            let silent_input = is_silent(x);
+            if scalar {
                 run_chunks_one(chunks, x, acc, silent_input);
             } else {
                 pulp::Arch::new().dispatch(|| run_chunks_one(chunks, x, acc, silent_input));
             }
-            for (o, a) in out[start..start + len].iter_mut().zip(acc.iter()) {
-                *o += a.iter().sum::<f32>();
-            }
-            self.clock += len;
-            if self.clock.is_multiple_of(CORRECTION_PERIOD) {
-                self.correct_and_cull();
-            }
-            start += len;
-        }
+        });
     }
 
     /// Adds the bank's response to the forces on its inputs (`forces[i]`: input `i`'s force, N
     /// per sample, at least as long as `out`, or empty for none) into `out`. Never allocates,
     /// locks or blocks.
     pub fn process_inputs(&mut self, forces: &[&[f32]; INPUTS], out: &mut [f32]) {
-        let n = out.len();
-        let mut start = 0;
-        while start < n {
-            // Segments end at block ends and at the correction grid.
-            let to_grid = CORRECTION_PERIOD - self.clock % CORRECTION_PERIOD;
-            let len = (n - start).min(BLOCK).min(to_grid);
-            // The inputs that carry force in this segment (a silent one: every sample ±0, an
-            // OR of the bits less the sign, without early exits, so it vectorizes).
+        let scalar = self.scalar_only;
+        self.segments(out, |chunks, extra, acc, start| {
+            let len = acc.len();
+            // The inputs that carry force in this segment.
             let mut active = [(0usize, &[] as &[f32]); INPUTS];
             let mut k = 0;
             for (i, f) in forces.iter().enumerate() {
-                if f.len() < start + len {
-                    continue;
-                }
-                let x = &f[start..start + len];
-                if x.iter().fold(0u32, |a, &v| a | (v.to_bits() << 1)) != 0 {
+                if let Some(x) = f.get(start..start + len).filter(|x| !is_silent(x)) {
                     active[k] = (i, x);
                     k += 1;
                 }
             }
-            let acc = &mut self.acc[..len];
-            for a in acc.iter_mut() {
-                *a = [0.0; LANES];
-            }
-            let (chunks, extra) = (&mut self.chunks, &self.extra_b);
             let active = &active[..k];
-            if self.scalar_only {
+            if scalar {
                 run_chunks(chunks, extra, active, acc);
             } else {
                 pulp::Arch::new().dispatch(|| run_chunks(chunks, extra, active, acc));
             }
+        });
+    }
+
+    /// Renders `out` in segments that end at block ends and at the correction grid:
+    /// `segment(chunks, extra gains, accumulator, start)` runs the chunks over the segment
+    /// from `start` (its length is the accumulator's); then the lanes are summed into `out`
+    /// and the drift is corrected on the grid.
+    #[inline(always)]
+    fn segments(
+        &mut self,
+        out: &mut [f32],
+        mut segment: impl FnMut(&mut [Chunk], &[[[f32; LANES]; INPUTS - 1]], &mut [[f32; LANES]], usize),
+    ) {
+        let n = out.len();
+        let mut start = 0;
+        while start < n {
+            let to_grid = CORRECTION_PERIOD - self.clock % CORRECTION_PERIOD;
+            let len = (n - start).min(BLOCK).min(to_grid);
+            let acc = &mut self.acc[..len];
+            for a in acc.iter_mut() {
+                *a = [0.0; LANES];
+            }
+            segment(&mut self.chunks, &self.extra_b, acc, start);
             for (o, a) in out[start..start + len].iter_mut().zip(acc.iter()) {
                 *o += a.iter().sum::<f32>();
             }
@@ -506,6 +498,12 @@ fn run_chunks(
             }
         }
     }
+}
+
+/// Every sample ±0 (an OR of the bits less the sign, without early exits, so it vectorizes).
+#[inline(always)]
+fn is_silent(x: &[f32]) -> bool {
+    x.iter().fold(0u32, |a, &v| a | (v.to_bits() << 1)) == 0
 }
 
 /// A segment of zero force.
