@@ -534,18 +534,23 @@ fn a_game_body_built_from_the_scene_sounds_like_the_scene_offline() {
     }
 }
 
+/// One 200 Hz mode (own decay 2/s) of `gain` (amplitude per N·s), aluminium for Hertz.
+fn one_mode(gain: f32) -> Sounding {
+    Sounding {
+        modes: vec![(200.0, 2.0)],
+        gains: vec![gain],
+        radiation: None,
+        elastic: ALUMINIUM,
+        contact_loss: resound::physics::DEFAULT_CONTACT_LOSS,
+    }
+}
+
 #[test]
 fn a_game_body_resting_on_the_table_rings_shorter_by_its_contact_damping() {
     // One 200 Hz mode (own decay 2/s) on a bar that settles on the table: resting with its
     // whole weight, it takes on the pair's loss factor η = (0.02 + 0.02)/2 (the shared contact
     // model, as offline), so it decays at 2 + π·200·η = 14.6 1/s once at rest.
-    let one = Sounding {
-        modes: vec![(200.0, 2.0)],
-        gains: vec![100.0],
-        radiation: None,
-        elastic: ALUMINIUM,
-        contact_loss: resound::physics::DEFAULT_CONTACT_LOSS,
-    };
+    let one = one_mode(100.0);
     let mut app = drop_scene::app(&one, &[0.02]);
     let out = drop_scene::run(&mut app, 1.2);
     let fs = out.sample_rate_hz;
@@ -577,13 +582,7 @@ fn a_game_impact_is_as_loud_as_its_impulse_and_the_distance_say() {
     // One 200 Hz mode of gain 1 (amplitude per N·s) struck by the drop's impulse J, heard at
     // r from the bar: the mode rings at J·|F(200 Hz)|/J ≈ 0.98 J (the 0.6 ms Hertz pulse
     // passes 200 Hz nearly whole) over r, split by the equal-power pan (√(L² + R²) of it).
-    let one = Sounding {
-        modes: vec![(200.0, 2.0)],
-        gains: vec![1.0],
-        radiation: None,
-        elastic: ALUMINIUM,
-        contact_loss: resound::physics::DEFAULT_CONTACT_LOSS,
-    };
+    let one = one_mode(1.0);
     let mut app = drop_scene::app(&one, &[0.3]);
     let out = drop_scene::run(&mut app, 0.6);
     let j = out.impact_figures[0].1;

@@ -92,12 +92,7 @@ fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
         &a.hit,
         &a.library,
         crate::estimate_cmd::object_params(1.0, 200, "ceramic")?,
-    )
-    .map_err(|_| {
-        anyhow::anyhow!(
-            "give the scraped object: --stats, --modes, or --material with --mesh and --hit"
-        )
-    })?;
+    )?;
     let pb = crate::util::Bar::new("modal");
     let made = resound::strike::source_modes(&source, fs, &pb.callback());
     pb.finish_and_clear();

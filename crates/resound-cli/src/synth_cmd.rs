@@ -155,7 +155,7 @@ pub fn strike_source(
             object_params,
             hit_m: parse_vec3(hit)?,
         },
-        _ => bail!("give --material, --mesh and --hit (or --modes, or --stats)"),
+        _ => bail!("give the object: --material with --mesh and --hit, or --modes, or --stats"),
     })
 }
 

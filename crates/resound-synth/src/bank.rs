@@ -435,25 +435,9 @@ fn run_chunks_one(chunks: &mut [Chunk], x: &[f32], acc: &mut [[f32; LANES]], sil
             }
             c.active = true;
         }
-        run_chunk_one(c, x, acc);
+        let b = c.b;
+        run_chunk(c, b, x, acc);
     }
-}
-
-#[inline(always)]
-fn run_chunk_one(c: &mut Chunk, x: &[f32], acc: &mut [[f32; LANES]]) {
-    let (mut zr, mut zi) = (c.zr, c.zi);
-    let (pr, pi, b) = (c.pr, c.pi, c.b);
-    for (&xn, a) in x.iter().zip(acc.iter_mut()) {
-        for l in 0..LANES {
-            let r = pr[l] * zr[l] - pi[l] * zi[l] + b[l] * xn;
-            let i = pr[l] * zi[l] + pi[l] * zr[l];
-            zr[l] = r;
-            zi[l] = i;
-            a[l] += i;
-        }
-    }
-    c.zr = zr;
-    c.zi = zi;
 }
 
 /// Runs every chunk over one segment; `active`: the inputs with force (index, samples).

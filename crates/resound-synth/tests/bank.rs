@@ -397,4 +397,12 @@ fn forces_at_two_points_that_overlap_each_sound_through_their_own_gains() {
         .zip(&both)
         .fold(0.0f32, |e, (y, z)| e.max((y - z).abs()));
     assert!(off > 0.05 * peak, "one input: {off} of peak {peak}");
+    // Inputs outside 1..=INPUTS are refused.
+    for inputs in [0, resound_synth::bank::INPUTS + 1] {
+        let p = EngineParams {
+            inputs,
+            ..Default::default()
+        };
+        assert!(Engine::new(p).is_err(), "{inputs} inputs");
+    }
 }
