@@ -26,7 +26,7 @@ pub fn run(a: DemoArgs) -> Result<()> {
         cache_dir: if a.no_cache {
             None
         } else {
-            crate::scene_cmd::default_cache_dir()
+            resound::model_cache::default_dir()
         },
     };
     let report = resound::demo::run(&params, &|line| eprintln!("demo: {line}"))?;

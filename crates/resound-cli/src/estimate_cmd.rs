@@ -167,53 +167,10 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     if a.name.is_some() {
         store_material(a.library.as_deref(), material, a.force)?;
     }
-    let p = &info.params;
     if a.json {
         return print_json(&info);
     }
-    println!(
-        "{name}: alpha {:.4e} 1/s, beta {:.4e} s, gamma {:.4e} m²/s², sigma {:.4e}; metric {:.4e} ({} starts, {} evaluations, {:.1} s)",
-        p.alpha, p.beta, p.gamma, p.sigma, info.metric, info.starts, info.evaluations, info.elapsed_s
-    );
-    if let Some(m) = info.mic {
-        println!(
-            "heard at the microphone {m:?} m (each mode's radiation there; {} estimate{} until γ settled)",
-            info.passes,
-            if info.passes == 1 { "" } else { "s" }
-        );
-    }
-    let f = &info.fit;
-    let pm = |s: Option<f64>, unit: &str| {
-        s.map_or("unknown".to_string(), |s| format!("± {s:.2e} {unit}"))
-    };
-    println!(
-        "fit: {} of {} recorded modes paired (median frequency error {:.2} %), {:.0} % of the recording's loudness; alpha {}, beta {}, gamma {}",
-        f.paired_modes,
-        f.recorded_modes,
-        100.0 * f.median_freq_error,
-        100.0 * f.loudness_share,
-        pm(f.alpha_sigma, "1/s"),
-        pm(f.beta_sigma, "s"),
-        pm(f.gamma_sigma, "m²/s²")
-    );
-    if let Some(sp) = &info.spread {
-        println!(
-            "{} recordings combined; their own estimates spread by alpha {:.1} %, beta {:.1} %, gamma {:.1} % (relative SD; the combined value's standard error is that over √{})",
-            info.takes.len(),
-            100.0 * sp.alpha_rel_sd,
-            100.0 * sp.beta_rel_sd,
-            100.0 * sp.gamma_rel_sd,
-            info.takes.len()
-        );
-        for t in &info.takes {
-            println!(
-                "  {}: sigma {:.3e}, metric {:.3e} (alone: alpha {:.3e}, beta {:.3e}, gamma {:.3e}, metric {:.3e})",
-                t.label, t.sigma, t.metric, t.alone.alpha, t.alone.beta, t.alone.gamma, t.alone_metric
-            );
-        }
-    } else {
-        println!("{}", info.strike_reason);
-    }
+    print!("{info}");
     Ok(())
 }
 

@@ -3,7 +3,7 @@
 use crate::util::{parse_vec3, print_json, warn_all, Bar};
 use anyhow::Result;
 use clap::Args;
-use resound::core::{Hit, Material, ModalModel};
+use resound::core::Material;
 use resound::io::model_file;
 use resound::modal::ModalParams;
 use resound::object::{solve_object, ModalReport, SolveJob, SolveOutcome};
@@ -103,30 +103,6 @@ fn params(a: &ModalArgs) -> ModalParams {
     }
 }
 
-fn print_modes(model: &ModalModel, hit: Option<&Hit>) {
-    if let Some(h) = hit {
-        let (p, n) = (h.at.point, h.at.normal);
-        println!(
-            "hit at ({:.4}, {:.4}, {:.4}) m, normal ({:.3}, {:.3}, {:.3})",
-            p[0], p[1], p[2], n[0], n[1], n[2]
-        );
-        println!("{:>5} {:>12} {:>14}", "mode", "freq_hz", "gain_m_per_Ns");
-    } else {
-        println!("{:>5} {:>12}", "mode", "freq_hz");
-    }
-    for j in 0..model.n_modes() {
-        match hit {
-            Some(h) => println!(
-                "{:>5} {:>12.2} {:>14.4e}",
-                j + 1,
-                model.freq_hz(j),
-                h.gains[j]
-            ),
-            None => println!("{:>5} {:>12.2}", j + 1, model.freq_hz(j)),
-        }
-    }
-}
-
 /// Runs `resound modal`.
 pub fn run(a: ModalArgs) -> Result<()> {
     crate::util::check_paths(
@@ -152,49 +128,20 @@ pub fn run(a: ModalArgs) -> Result<()> {
     let SolveOutcome {
         model,
         report,
-        hit,
         repairs,
+        ..
     } = solved?;
-    let model = &model;
     warn_all(&report.warnings);
     for l in repairs {
         eprintln!("repaired: {l}");
     }
     if let Some(out) = &a.output {
-        model_file::save(out, model)?;
+        model_file::save(out, &model)?;
     }
     if a.json {
         return print_json(&report);
     }
-    if let Some(t) = &report.transfer {
-        println!(
-            "acoustic transfer: {} grid frequencies, {} surface points, up to {} unknowns, \
-             worst misfit {:.3}, {:.1} MB, in {:.2} s",
-            t.info.grid_points,
-            t.info.surface_points,
-            t.info.max_unknowns,
-            t.info.worst_residual,
-            t.info.bytes as f64 / 1e6,
-            t.fit_s
-        );
-    }
-    if let Some(e) = &report.solve {
-        println!(
-            "{} elements ({}), {} DOFs, {} modes in {:.2} s (assemble {:.2} s, factor {:.2} s, \
-             Lanczos {:.2} s, Sturm {:.2} s); max residual {:.1e}",
-            report.elements,
-            e.element,
-            report.dofs,
-            model.n_modes(),
-            e.solve_s,
-            e.assemble_s,
-            e.factor_s,
-            e.eigen_s,
-            e.sturm_s,
-            e.max_rel_residual
-        );
-    }
-    print_modes(model, hit.as_ref());
+    print!("{report}");
     Ok(())
 }
 
@@ -226,10 +173,10 @@ pub fn run_info(a: ModelInfoArgs) -> Result<()> {
         .transpose()?
         .map(|h| model.hit(h))
         .transpose()?;
+    let mut report = ModalReport::new(&model, None, hit.as_ref());
     if a.json {
-        let mut s = ModalReport::new(&model, None, hit.as_ref());
-        s.load_ms = Some(load_ms);
-        return print_json(&s);
+        report.load_ms = Some(load_ms);
+        return print_json(&report);
     }
     let m = &model.material;
     println!(
@@ -245,6 +192,6 @@ pub fn run_info(a: ModelInfoArgs) -> Result<()> {
             t.radius_m
         );
     }
-    print_modes(&model, hit.as_ref());
+    print!("{report}");
     Ok(())
 }

@@ -79,14 +79,6 @@ pub struct SceneArgs {
     pub keep_level: bool,
 }
 
-/// The default modal-model cache directory.
-pub fn default_cache_dir() -> Option<PathBuf> {
-    std::env::var_os("XDG_CACHE_HOME")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
-        .map(|d| d.join("resound").join("models"))
-}
-
 #[derive(Serialize)]
 struct Output<'a> {
     output: String,
@@ -108,7 +100,7 @@ pub fn run(a: SceneArgs) -> Result<()> {
         cache_dir: if a.no_cache {
             None
         } else {
-            a.cache.clone().or_else(default_cache_dir)
+            a.cache.clone().or_else(resound::model_cache::default_dir)
         },
         keep_level: a.keep_level,
         live: None,
@@ -120,17 +112,7 @@ pub fn run(a: SceneArgs) -> Result<()> {
         let r = resound::live::play_scene(&a.scene, &params, a.block as usize, a.gain_db, &|p| {
             eprintln!("{p}")
         })?;
-        eprintln!(
-            "played {} live: {} callbacks, latency {} samples + the device's, {} late steps, \
-             {} dropped cues, {} voices stolen, degradation level {}",
-            a.scene.display(),
-            r.callbacks,
-            r.latency,
-            r.late_steps,
-            r.dropped_cues,
-            r.voices_stolen,
-            r.degradation
-        );
+        eprintln!("played {} live: {r}", a.scene.display());
         return Ok(());
     }
     if a.simulate_device {
@@ -156,51 +138,15 @@ pub fn run(a: SceneArgs) -> Result<()> {
         resound::files::write_json_lines(p, &r.events)?;
     }
     if a.play {
-        let n = r.channels[0].len();
-        let mono: Vec<f32> = (0..n)
-            .map(|i| r.channels.iter().map(|c| c[i]).sum::<f32>() / r.channels.len() as f32)
-            .collect();
-        let strike = resound::strike::Strike {
-            samples: Vec::new(),
-            modes: Vec::new(),
-            force: Vec::new(),
-            extra: mono,
-            info: Default::default(),
-        };
-        resound::live::play(&strike, 1.0, r.sample_rate_hz, r.summary.duration_s)?;
+        resound::live::play_channels(&r.channels, r.sample_rate_hz)?;
     }
     let s = &r.summary;
-    if let Some(l) = &s.live {
-        if l.late_steps > 0 || l.dropped_cues > 0 {
-            eprintln!(
-                "warning: the live path fell behind: {} late steps, {} dropped cues",
-                l.late_steps, l.dropped_cues
-            );
-        }
-    }
     if a.json {
         return crate::util::print_json(&Output {
             output: output.display().to_string(),
             summary: s,
         });
     }
-    match &s.live {
-        Some(l) => eprintln!(
-            "wrote {} through the live path ({} impacts; {} blocks of {}, latency {} samples, callback p99 {:.0}% of its deadline, {} xruns)",
-            output.display(),
-            s.impacts,
-            l.callbacks,
-            l.block,
-            l.latency_samples,
-            100.0 * l.p99_share,
-            l.xruns
-        ),
-        None => eprintln!(
-            "wrote {} ({} impacts, {:.1}x real time)",
-            output.display(),
-            s.impacts,
-            s.realtime_factor
-        ),
-    }
+    eprintln!("wrote {} ({s})", output.display());
     Ok(())
 }

@@ -23,6 +23,45 @@ pub struct LivePlayReport {
     pub degradation: u64,
 }
 
+impl std::fmt::Display for LivePlayReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} callbacks, latency {} samples + the device's, {} late steps, {} dropped cues, \
+             {} voices stolen, degradation level {}",
+            self.callbacks,
+            self.latency,
+            self.late_steps,
+            self.dropped_cues,
+            self.voices_stolen,
+            self.degradation
+        )
+    }
+}
+
+/// Plays rendered `channels` (mixed to mono) at `sample_rate` on the default output device.
+///
+/// # Errors
+/// No channels; as [`play`].
+pub fn play_channels(channels: &[Vec<f32>], sample_rate: u32) -> Result<()> {
+    let Some(n) = channels.iter().map(Vec::len).min() else {
+        return Err(Error::Invalid("nothing to play".into()));
+    };
+    let k = channels.len() as f32;
+    let mono: Vec<f32> = (0..n)
+        .map(|i| channels.iter().map(|c| c[i]).sum::<f32>() / k)
+        .collect();
+    let seconds = n as f64 / f64::from(sample_rate);
+    let strike = Strike {
+        samples: Vec::new(),
+        modes: Vec::new(),
+        force: Vec::new(),
+        extra: mono,
+        info: Default::default(),
+    };
+    play(&strike, 1.0, sample_rate, seconds)
+}
+
 /// The default output device and its default configuration.
 #[cfg(feature = "live")]
 fn default_device() -> Result<(cpal::Device, cpal::SupportedStreamConfig)> {

@@ -51,6 +51,15 @@ impl KeyBuilder {
     }
 }
 
+/// Where solved models are cached by default: `$XDG_CACHE_HOME/resound/models`, else
+/// `~/.cache/resound/models`; `None` with neither variable set.
+pub fn default_dir() -> Option<PathBuf> {
+    std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache")))
+        .map(|d| d.join("resound").join("models"))
+}
+
 /// Solved models in memory and, with a directory, on disk.
 pub struct ModelCache {
     memory: HashMap<ModelKey, Arc<ModalModel>>,

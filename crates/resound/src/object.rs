@@ -307,6 +307,62 @@ pub struct ModalReport {
     pub modes: Vec<ModeRow>,
 }
 
+impl std::fmt::Display for ModalReport {
+    /// What the solve did and the transfer fit (when done here), then the modes: frequency,
+    /// and the gain at the hit point when there is one.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(t) = &self.transfer {
+            writeln!(
+                f,
+                "acoustic transfer: {} grid frequencies, {} surface points, up to {} unknowns, \
+                 worst misfit {:.3}, {:.1} MB, in {:.2} s",
+                t.info.grid_points,
+                t.info.surface_points,
+                t.info.max_unknowns,
+                t.info.worst_residual,
+                t.info.bytes as f64 / 1e6,
+                t.fit_s
+            )?;
+        }
+        if let Some(e) = &self.solve {
+            writeln!(
+                f,
+                "{} elements ({}), {} DOFs, {} modes in {:.2} s (assemble {:.2} s, factor \
+                 {:.2} s, Lanczos {:.2} s, Sturm {:.2} s); max residual {:.1e}",
+                self.elements,
+                e.element,
+                self.dofs,
+                self.modes.len(),
+                e.solve_s,
+                e.assemble_s,
+                e.factor_s,
+                e.eigen_s,
+                e.sturm_s,
+                e.max_rel_residual
+            )?;
+        }
+        match &self.hit {
+            Some(h) => {
+                let (p, n) = (h.point, h.normal);
+                writeln!(
+                    f,
+                    "hit at ({:.4}, {:.4}, {:.4}) m, normal ({:.3}, {:.3}, {:.3})",
+                    p[0], p[1], p[2], n[0], n[1], n[2]
+                )?;
+                writeln!(f, "{:>5} {:>12} {:>14}", "mode", "freq_hz", "gain_m_per_Ns")?;
+            }
+            None => writeln!(f, "{:>5} {:>12}", "mode", "freq_hz")?,
+        }
+        for (j, m) in self.modes.iter().enumerate() {
+            match m.gain {
+                Some(g) => writeln!(f, "{:>5} {:>12.2} {:>14.4e}", j + 1, m.freq_hz, g)?,
+                None => writeln!(f, "{:>5} {:>12.2}", j + 1, m.freq_hz)?,
+            }
+        }
+        Ok(())
+    }
+}
+
 impl ModalReport {
     /// The report of `model` (solved as `info` says, or loaded: `None`), with the gains at
     /// `hit`.

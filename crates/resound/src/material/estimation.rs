@@ -102,6 +102,80 @@ pub struct EstimateInfo {
     pub transfer_fit_s: f64,
 }
 
+impl std::fmt::Display for EstimateInfo {
+    /// The parameters, the fit (pairing, loudness share, uncertainties), and the takes'
+    /// spread when several recordings were combined (else why this strike was used).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let p = &self.params;
+        writeln!(
+            f,
+            "{}: alpha {:.4e} 1/s, beta {:.4e} s, gamma {:.4e} m²/s², sigma {:.4e}; metric \
+             {:.4e} ({} starts, {} evaluations, {:.1} s)",
+            self.name,
+            p.alpha,
+            p.beta,
+            p.gamma,
+            p.sigma,
+            self.metric,
+            self.starts,
+            self.evaluations,
+            self.elapsed_s
+        )?;
+        if let Some(m) = self.mic {
+            writeln!(
+                f,
+                "heard at the microphone {m:?} m (each mode's radiation there; {} estimate{} \
+                 until γ settled)",
+                self.passes,
+                if self.passes == 1 { "" } else { "s" }
+            )?;
+        }
+        let fit = &self.fit;
+        let pm = |s: Option<f64>, unit: &str| {
+            s.map_or("unknown".to_string(), |s| format!("± {s:.2e} {unit}"))
+        };
+        writeln!(
+            f,
+            "fit: {} of {} recorded modes paired (median frequency error {:.2} %), {:.0} % of \
+             the recording's loudness; alpha {}, beta {}, gamma {}",
+            fit.paired_modes,
+            fit.recorded_modes,
+            100.0 * fit.median_freq_error,
+            100.0 * fit.loudness_share,
+            pm(fit.alpha_sigma, "1/s"),
+            pm(fit.beta_sigma, "s"),
+            pm(fit.gamma_sigma, "m²/s²")
+        )?;
+        let Some(sp) = &self.spread else {
+            return writeln!(f, "{}", self.strike_reason);
+        };
+        let n = self.takes.len();
+        writeln!(
+            f,
+            "{n} recordings combined; their own estimates spread by alpha {:.1} %, beta {:.1} %, \
+             gamma {:.1} % (relative SD; the combined value's standard error is that over √{n})",
+            100.0 * sp.alpha_rel_sd,
+            100.0 * sp.beta_rel_sd,
+            100.0 * sp.gamma_rel_sd,
+        )?;
+        for t in &self.takes {
+            writeln!(
+                f,
+                "  {}: sigma {:.3e}, metric {:.3e} (alone: alpha {:.3e}, beta {:.3e}, gamma \
+                 {:.3e}, metric {:.3e})",
+                t.label,
+                t.sigma,
+                t.metric,
+                t.alone.alpha,
+                t.alone.beta,
+                t.alone.gamma,
+                t.alone_metric
+            )?;
+        }
+        Ok(())
+    }
+}
+
 /// With a microphone, the estimate is rerun while its γ moves the modes by more than this
 /// (octaves): an eighth of the transfer grid's third-octave spacing.
 pub const MIC_SETTLE_OCTAVES: f64 = 1.0 / 24.0;

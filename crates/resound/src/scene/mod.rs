@@ -88,6 +88,30 @@ pub struct SceneSummary {
     pub live: Option<resound_physics::live::LiveReport>,
 }
 
+impl std::fmt::Display for SceneSummary {
+    /// One line: impacts and speed, or the live path's figures.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match &self.live {
+            Some(l) => write!(
+                f,
+                "{} impacts; through the live path: {} blocks of {}, latency {} samples, \
+                 callback p99 {:.0}% of its deadline, {} xruns",
+                self.impacts,
+                l.callbacks,
+                l.block,
+                l.latency_samples,
+                100.0 * l.p99_share,
+                l.xruns
+            ),
+            None => write!(
+                f,
+                "{} impacts, {:.1}x real time",
+                self.impacts, self.realtime_factor
+            ),
+        }
+    }
+}
+
 /// A rendered scene.
 #[derive(Clone, Debug)]
 pub struct SceneRender {
@@ -316,6 +340,20 @@ fn run_built(
             "peak {:.2} of full scale; turned down by {:.1} dB (no clipping)",
             level.peak_before, -level.gain_db
         ));
+    }
+    if let Some(l) = live
+        .as_ref()
+        .filter(|l| l.late_steps > 0 || l.dropped_cues > 0)
+    {
+        let w = Warning::new(
+            WarningKind::Realtime,
+            format!(
+                "the live path fell behind: {} late steps, {} dropped cues",
+                l.late_steps, l.dropped_cues
+            ),
+        );
+        progress(Progress::Warning(w.clone()));
+        warnings.push(w);
     }
     let s = &out.stats;
     let summary = SceneSummary {
