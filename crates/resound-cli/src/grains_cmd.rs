@@ -1,10 +1,12 @@
 //! `resound grains`: grain dictionaries (Picard, Tsingos & Faure 2009).
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::{Args, Subcommand, ValueEnum};
-use resound::grain_files::{analyze_to_file, load_recordings, recording_index, summary, KindRule};
+use resound::grain_files::{
+    analyze_to_file, load_recordings, resynthesize_recording, summary, KindRule,
+};
 use resound::grains::quality::spectral_convergence_db;
-use resound::grains::resynth::{resynthesize, ResynthParams};
+use resound::grains::resynth::ResynthParams;
 use resound::grains::{AnalyzeParams, Contact};
 use std::path::PathBuf;
 
@@ -137,24 +139,10 @@ pub fn run(c: GrainsCmd) -> Result<()> {
             let made = analyze_to_file(&recs, fs, &params, a.prune, &a.output, &pb.callback());
             pb.finish_and_clear();
             let made = made?;
-            let (sum, size) = (&made.summary, made.file_bytes);
             if a.json {
                 crate::util::print_json(&made)?;
             } else {
-                eprintln!(
-                    "wrote {} ({} grains: {} impulsive, {} sinusoidal, {} transient; {} bytes, compression {:.2}:1)",
-                    a.output.display(), sum.grains, sum.impulsive, sum.sinusoidal, sum.transient, size, sum.compression_ratio
-                );
-                for r in &sum.recordings {
-                    eprintln!(
-                        "  {:<28} {:<10} {:>6.2} s {:>5} grains, rebuild {:>6.1} dB",
-                        r.name,
-                        format!("{:?}", r.contact).to_lowercase(),
-                        r.duration_s,
-                        r.grains,
-                        r.spectral_convergence_db.unwrap_or(f64::NAN)
-                    );
-                }
+                eprintln!("wrote {}: {made}", a.output.display());
             }
         }
         GrainsCmd::Resynth(a) => {
@@ -164,17 +152,13 @@ pub fn run(c: GrainsCmd) -> Result<()> {
                 .collect();
             crate::util::check_paths(&inputs, &[&a.output])?;
             let d = resound::io::grains_file::load(&a.dictionary)?;
-            let k = recording_index(&d, &a.recording)
-                .with_context(|| a.dictionary.display().to_string())?;
             let p = ResynthParams {
                 time_scale: a.time_scale,
                 variation: a.variation,
                 seed: a.seed,
             };
-            let y = resynthesize(&d, k, &p)?;
-            if y.is_empty() {
-                bail!("recording {k} has no grains to rebuild it from");
-            }
+            let y = resynthesize_recording(&d, &a.recording, &p)
+                .with_context(|| a.dictionary.display().to_string())?;
             if let Some(r) = &a.reference {
                 let (o, _, _) = load_recordings(
                     &[r.to_string_lossy().into_owned()],

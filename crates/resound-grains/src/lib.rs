@@ -78,6 +78,16 @@ pub enum Contact {
 }
 
 impl Contact {
+    /// Its name, as in files (serde's).
+    pub fn name(self) -> &'static str {
+        match self {
+            Contact::Impact => "impact",
+            Contact::Rolling => "rolling",
+            Contact::Sliding => "sliding",
+            Contact::Continuous => "continuous",
+        }
+    }
+
     /// Whether recordings of this contact are split into sinusoidal and transient parts.
     pub fn is_continuous(self) -> bool {
         self != Contact::Impact

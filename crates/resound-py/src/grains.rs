@@ -161,7 +161,6 @@ impl GrainDictionary {
             RecordingRef::Index(k) => k.to_string(),
             RecordingRef::Name(s) => s,
         };
-        let k = resound::grain_files::recording_index(&self.inner, &spec).map_err(err)?;
         let p = resound::grains::resynth::ResynthParams {
             time_scale,
             variation,
@@ -169,7 +168,7 @@ impl GrainDictionary {
         };
         let d = &self.inner;
         let y = py
-            .detach(|| resound::grains::resynth::resynthesize(d, k, &p))
+            .detach(|| resound::grain_files::resynthesize_recording(d, &spec, &p))
             .map_err(err)?;
         Ok(y.into_pyarray(py))
     }

@@ -281,6 +281,27 @@ pub fn recording_index(d: &Dictionary, spec: &str) -> Result<usize> {
         })
 }
 
+/// Rebuilds recording `spec` (index or name) of `d` from its grains with `params`: samples
+/// at the dictionary's rate, at the recording's level.
+///
+/// # Errors
+/// An unknown recording; one with no grains to rebuild it from (nothing would be heard).
+pub fn resynthesize_recording(
+    d: &Dictionary,
+    spec: &str,
+    params: &ResynthParams,
+) -> Result<Vec<f32>> {
+    let k = recording_index(d, spec)?;
+    let y = resynthesize(d, k, params)?;
+    if y.is_empty() {
+        return Err(invalid(format!(
+            "recording {k} ('{}') has no grains to rebuild it from",
+            d.recordings[k].name
+        )));
+    }
+    Ok(y)
+}
+
 /// What [`analyze_to_file`] made.
 #[derive(Clone, Debug, Serialize)]
 pub struct DictionaryFile {
@@ -291,6 +312,30 @@ pub struct DictionaryFile {
     pub file_bytes: u64,
     /// What the analysis did.
     pub analysis: resound_grains::AnalyzeInfo,
+}
+
+impl std::fmt::Display for DictionaryFile {
+    /// The dictionary's grains, size and compression, then each recording's rebuild quality.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = &self.summary;
+        write!(
+            f,
+            "{} grains: {} impulsive, {} sinusoidal, {} transient; {} bytes, compression {:.2}:1",
+            s.grains, s.impulsive, s.sinusoidal, s.transient, self.file_bytes, s.compression_ratio
+        )?;
+        for r in &s.recordings {
+            write!(
+                f,
+                "\n  {:<28} {:<10} {:>6.2} s {:>5} grains, rebuild {:>6.1} dB",
+                r.name,
+                r.contact.name(),
+                r.duration_s,
+                r.grains,
+                r.spectral_convergence_db.unwrap_or(f64::NAN)
+            )?;
+        }
+        Ok(())
+    }
 }
 
 /// Cuts `recordings` into grains and patterns, prunes them at correlation `prune` when given,
