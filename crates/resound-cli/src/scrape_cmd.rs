@@ -12,21 +12,8 @@ use std::path::PathBuf;
 /// Arguments of `scrape`.
 #[derive(Args, Debug)]
 pub struct ScrapeArgs {
-    /// The scraped object as mode statistics (`resound stats`).
-    #[arg(long, conflicts_with_all = ["material", "modes"])]
-    pub stats: Option<PathBuf>,
-    /// The scraped object as analysed modes (`resound analyze --json`).
-    #[arg(long, conflicts_with_all = ["material"])]
-    pub modes: Option<PathBuf>,
-    /// The scraped object's material (library name or file); needs --mesh and --hit.
-    #[arg(long, requires_all = ["mesh", "hit"])]
-    pub material: Option<String>,
-    /// Mesh or .rmodal of the object (with --material).
-    #[arg(long)]
-    pub mesh: Option<PathBuf>,
-    /// Where on the object the scrape happens (with --material), m.
-    #[arg(long, allow_hyphen_values = true)]
-    pub hit: Option<String>,
+    #[command(flatten)]
+    pub object: crate::util::ObjectSourceArgs,
     /// Surface: "fractal" (a 1/f² Brownian profile) or a height profile (.npy, metres; quilted).
     #[arg(long, default_value = "fractal")]
     pub surface: String,
@@ -68,9 +55,6 @@ pub struct ScrapeArgs {
     /// Output sample rate, Hz.
     #[arg(long, default_value_t = 48_000)]
     pub sample_rate: u32,
-    /// Material library path.
-    #[arg(long)]
-    pub library: Option<PathBuf>,
     /// Output WAV.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -83,14 +67,8 @@ pub struct ScrapeArgs {
 }
 
 fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
-    let source = crate::synth_cmd::strike_source(
-        &a.modes,
-        &a.stats,
+    let source = a.object.source(
         a.seed,
-        &a.material,
-        &a.mesh,
-        &a.hit,
-        &a.library,
         crate::estimate_cmd::object_params(1.0, 200, "ceramic")?,
     )?;
     let pb = crate::util::Bar::new("modal");
@@ -105,14 +83,8 @@ fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
 
 /// Runs `scrape`.
 pub fn run(a: ScrapeArgs) -> Result<()> {
-    let inputs: Vec<&std::path::Path> = a
-        .stats
-        .iter()
-        .chain(&a.modes)
-        .chain(&a.mesh)
-        .chain(&a.trajectory)
-        .map(|p| p.as_path())
-        .collect();
+    let mut inputs = a.object.inputs();
+    inputs.extend(a.trajectory.as_deref());
     crate::util::check_paths(&inputs, &[&a.output])?;
     let fs = f64::from(a.sample_rate);
     let path = match (&a.trajectory, a.speed) {

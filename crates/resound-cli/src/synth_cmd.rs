@@ -2,14 +2,14 @@
 
 use crate::estimate_cmd::object_params;
 use crate::util::parse_vec3;
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
 use resound::core::Material;
 use resound::io::{write_wav, WavFormat};
-use resound::strike::{render_strike_from, StrikeInfo, StrikeParams, StrikeSource};
+use resound::strike::{render_strike_from, StrikeInfo, StrikeParams};
 use resound::synth::excitation::ContactModel;
 use serde::Serialize;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Contact force law.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -56,21 +56,8 @@ impl From<FormatArg> for WavFormat {
 /// Arguments of `synth`.
 #[derive(Args, Debug)]
 pub struct SynthArgs {
-    /// Material: a library name or a material file (JSON).
-    #[arg(long, required_unless_present_any = ["modes", "stats"])]
-    pub material: Option<String>,
-    /// The struck object: a surface or tet mesh, or a saved modal model (.rmodal).
-    #[arg(long, required_unless_present_any = ["modes", "stats"])]
-    pub mesh: Option<PathBuf>,
-    /// Hit point x,y,z in metres (snapped to the nearest surface point).
-    #[arg(long, allow_hyphen_values = true, required_unless_present_any = ["modes", "stats"])]
-    pub hit: Option<String>,
-    /// Render analysed modes directly (the JSON of `resound analyze --json`) instead.
-    #[arg(long, conflicts_with_all = ["material", "mesh", "hit"])]
-    pub modes: Option<PathBuf>,
-    /// Render an impulse response sampled from mode statistics (`resound stats`) instead.
-    #[arg(long, conflicts_with_all = ["material", "mesh", "hit", "modes"])]
-    pub stats: Option<PathBuf>,
+    #[command(flatten)]
+    pub object: crate::util::ObjectSourceArgs,
     /// Seed of the sampled impulse response (`--stats`); the per-impact variation uses seed + 1.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -108,9 +95,6 @@ pub struct SynthArgs {
     /// Hertz contact).
     #[arg(long, default_value = "ceramic")]
     pub reference_material: String,
-    /// Material library path.
-    #[arg(long)]
-    pub library: Option<PathBuf>,
     /// Microphone x,y,z in metres (model coordinates): weight each mode by what it radiates
     /// there (the model's acoustic transfer: `resound modal --transfer`, or fitted now).
     #[arg(long, allow_hyphen_values = true, conflicts_with_all = ["modes", "stats"])]
@@ -131,34 +115,6 @@ pub struct SynthArgs {
 }
 
 /// What sounds: `--modes`, `--stats` (with `--seed`), or `--material` on `--mesh` at `--hit`.
-#[allow(clippy::too_many_arguments)]
-pub fn strike_source(
-    modes: &Option<PathBuf>,
-    stats: &Option<PathBuf>,
-    seed: u64,
-    material: &Option<String>,
-    mesh: &Option<PathBuf>,
-    hit: &Option<String>,
-    library: &Option<PathBuf>,
-    object_params: resound::object::ObjectParams,
-) -> Result<StrikeSource> {
-    Ok(match (modes, stats, material, mesh, hit) {
-        (Some(p), ..) => StrikeSource::Modes(p.clone()),
-        (None, Some(p), ..) => StrikeSource::Stats {
-            path: p.clone(),
-            seed,
-        },
-        (None, None, Some(material), Some(mesh), Some(hit)) => StrikeSource::Object {
-            material: material.clone(),
-            library: library.clone(),
-            object: mesh.clone(),
-            object_params,
-            hit_m: parse_vec3(hit)?,
-        },
-        _ => bail!("give the object: --material with --mesh and --hit, or --modes, or --stats"),
-    })
-}
-
 #[derive(Serialize)]
 struct Output<'a> {
     /// The file written.
@@ -169,14 +125,7 @@ struct Output<'a> {
 
 /// Runs `synth`.
 pub fn run(a: SynthArgs) -> Result<()> {
-    let inputs: Vec<&Path> = a
-        .mesh
-        .iter()
-        .chain(&a.modes)
-        .chain(&a.stats)
-        .map(|p| p.as_path())
-        .collect();
-    crate::util::check_paths(&inputs, &[&a.output])?;
+    crate::util::check_paths(&a.object.inputs(), &[&a.output])?;
     let params = StrikeParams {
         speed_m_s: a.velocity,
         impactor_mass_kg: a.impactor_mass,
@@ -188,14 +137,8 @@ pub fn run(a: SynthArgs) -> Result<()> {
         sample_rate_hz: a.sample_rate,
         mic_m: a.mic.as_deref().map(parse_vec3).transpose()?,
     };
-    let source = strike_source(
-        &a.modes,
-        &a.stats,
+    let source = a.object.source(
         a.seed,
-        &a.material,
-        &a.mesh,
-        &a.hit,
-        &a.library,
         object_params(a.scale, a.mesh_modes, &a.reference_material)?,
     )?;
     let pb = crate::util::Bar::new("synth");

@@ -3,6 +3,7 @@
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
+use std::path::PathBuf;
 use std::time::Duration;
 
 /// Parses `x,y,z`.
@@ -176,5 +177,70 @@ impl TakeArgs {
             Some(k) => Ok(Some(k - 1)),
             None => Ok(None),
         }
+    }
+}
+
+/// The struck or scraped object of `synth` and `scrape`: a material on a mesh at a hit point,
+/// analysed modes, or mode statistics.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ObjectSourceArgs {
+    /// Material: a library name or a material file (JSON); needs --mesh and --hit.
+    #[arg(long, requires_all = ["mesh", "hit"])]
+    pub material: Option<String>,
+    /// The object: a surface or tet mesh, or a saved modal model (.rmodal) (with --material).
+    #[arg(long)]
+    pub mesh: Option<PathBuf>,
+    /// Hit point x,y,z in metres, snapped to the nearest surface point (with --material).
+    #[arg(long, allow_hyphen_values = true)]
+    pub hit: Option<String>,
+    /// The object as analysed modes (the JSON of `resound analyze --json`) instead.
+    #[arg(long, conflicts_with_all = ["material", "mesh", "hit"])]
+    pub modes: Option<PathBuf>,
+    /// The object as mode statistics (`resound stats`) instead: a sampled impulse response.
+    #[arg(long, conflicts_with_all = ["material", "mesh", "hit", "modes"])]
+    pub stats: Option<PathBuf>,
+    /// Material library path.
+    #[arg(long)]
+    pub library: Option<PathBuf>,
+}
+
+impl ObjectSourceArgs {
+    /// The files read.
+    pub fn inputs(&self) -> Vec<&std::path::Path> {
+        self.mesh
+            .iter()
+            .chain(&self.modes)
+            .chain(&self.stats)
+            .map(|p| p.as_path())
+            .collect()
+    }
+
+    /// The library's strike source (`seed`: of a statistics draw).
+    pub fn source(
+        &self,
+        seed: u64,
+        object_params: resound::object::ObjectParams,
+    ) -> Result<resound::strike::StrikeSource> {
+        use resound::strike::StrikeSource;
+        Ok(match self {
+            Self { modes: Some(p), .. } => StrikeSource::Modes(p.clone()),
+            Self { stats: Some(p), .. } => StrikeSource::Stats {
+                path: p.clone(),
+                seed,
+            },
+            Self {
+                material: Some(material),
+                mesh: Some(mesh),
+                hit: Some(hit),
+                ..
+            } => StrikeSource::Object {
+                material: material.clone(),
+                library: self.library.clone(),
+                object: mesh.clone(),
+                object_params,
+                hit_m: parse_vec3(hit)?,
+            },
+            _ => bail!("give the object: --material with --mesh and --hit, or --modes, or --stats"),
+        })
     }
 }
