@@ -92,6 +92,48 @@ pub struct Analysis {
     pub total_s: f64,
 }
 
+impl std::fmt::Display for Analysis {
+    /// What was analysed (the strike, conditioning, onset, noise) and the table of modes,
+    /// with each one's level below the strongest.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let c = &self.conditioning;
+        writeln!(
+            f,
+            "{}; offset {:+.5} removed; high-pass {}; noise floor {:.1} dBFS (from the {})",
+            self.strike_reason, c.dc_offset, c.highpass_reason, c.noise_floor_dbfs, c.noise_from
+        )?;
+        writeln!(
+            f,
+            "onset {:.4} s, {:.3} s analysed at {} Hz, noise {:.1} dBFS, {} modes ({:.2} s)",
+            self.onset_s,
+            self.samples as f64 / self.sample_rate_hz,
+            self.sample_rate_hz,
+            20.0 * self.noise_rms.max(1e-12).log10(),
+            self.modes.len(),
+            self.total_s
+        )?;
+        writeln!(
+            f,
+            "{:>4} {:>12} {:>12} {:>10} {:>9} {:>8}",
+            "#", "freq_hz", "damping_1/s", "amplitude", "level_dB", "phase"
+        )?;
+        let strongest = self.modes.iter().map(|m| m.amplitude).fold(0.0, f64::max);
+        for (i, m) in self.modes.iter().enumerate() {
+            writeln!(
+                f,
+                "{:>4} {:>12.3} {:>12.3} {:>10.3e} {:>9.1} {:>8.3}",
+                i + 1,
+                m.freq_hz,
+                m.damping_per_s,
+                m.amplitude,
+                20.0 * (m.amplitude / strongest).log10(),
+                m.phase_rad
+            )?;
+        }
+        Ok(())
+    }
+}
+
 /// Why a signal cannot be analysed.
 #[derive(Debug, Error, PartialEq)]
 pub enum AnalyzeError {
@@ -197,6 +239,12 @@ pub fn analyze(
         return Err(AnalyzeError::Param(format!(
             "min_db must be in (0, 200], got {}",
             params.min_db
+        )));
+    }
+    if !(params.max_duration_s > 0.02 && params.max_duration_s <= 600.0) {
+        return Err(AnalyzeError::Param(format!(
+            "max_duration_s must be in (0.02, 600] s, got {}",
+            params.max_duration_s
         )));
     }
     if params.max_modes == 0 || params.max_modes > 4096 {
