@@ -47,17 +47,7 @@ pub fn run(a: BatchArgs) -> Result<()> {
     if a.json {
         print_json(&info)?;
     } else {
-        println!(
-            "shard {}: {} of {} jobs; {} strikes rendered, {} already done; {} models solved; {:.1} s",
-            a.shard,
-            info.shard_jobs,
-            info.jobs,
-            info.rendered,
-            info.skipped,
-            info.models_solved,
-            info.elapsed_s
-        );
-        println!("manifest: {}", info.manifest.display());
+        println!("shard {}: {info}", a.shard);
     }
     if !info.failures.is_empty() {
         for f in &info.failures {

@@ -4,7 +4,7 @@ use crate::util::parse_list;
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use resound::io::save_surface;
-use resound::mesh::{check_mesh, make_primitive, MeshReport, PrimitiveKind};
+use resound::mesh::{check_mesh, make_primitive, PrimitiveKind};
 use std::path::PathBuf;
 
 /// Mesh subcommands.
@@ -73,27 +73,10 @@ pub fn run(c: MeshCmd) -> Result<()> {
         }
         MeshCmd::Check(a) => {
             let r = check_mesh(&a.mesh, a.scale, a.max_hole_edges)?;
-            match (&r, a.json) {
-                (_, true) => crate::util::print_json(&r)?,
-                (
-                    MeshReport::Surface {
-                        vertices,
-                        triangles,
-                        bbox_min_m,
-                        bbox_max_m,
-                        volume_m3,
-                        repairs,
-                    },
-                    false,
-                ) => {
-                    println!(
-                        "{vertices} vertices, {triangles} triangles; bbox {bbox_min_m:?} .. {bbox_max_m:?} m; closed volume {volume_m3:.4e} m^3"
-                    );
-                    for l in repairs {
-                        println!("repair: {l}");
-                    }
-                }
-                (MeshReport::Tets { .. }, false) => println!("{}", serde_json::to_string(&r)?),
+            if a.json {
+                crate::util::print_json(&r)?;
+            } else {
+                println!("{r}");
             }
         }
     }

@@ -199,6 +199,24 @@ pub struct BatchInfo {
     pub elapsed_s: f64,
 }
 
+impl std::fmt::Display for BatchInfo {
+    /// What the shard did, and where its manifest is.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} of {} jobs; {} strikes rendered, {} already done; {} models solved; {:.1} s\n\
+             manifest: {}",
+            self.shard_jobs,
+            self.jobs,
+            self.rendered,
+            self.skipped,
+            self.models_solved,
+            self.elapsed_s,
+            self.manifest.display()
+        )
+    }
+}
+
 /// Parses `i/N` (index from 0).
 ///
 /// # Errors

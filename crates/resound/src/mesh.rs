@@ -130,6 +130,44 @@ pub enum MeshReport {
     },
 }
 
+impl std::fmt::Display for MeshReport {
+    /// A surface: its size, bounding box, closed volume and each repair, one per line; a tet
+    /// mesh: its counts, volume and notes.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MeshReport::Surface {
+                vertices,
+                triangles,
+                bbox_min_m,
+                bbox_max_m,
+                volume_m3,
+                repairs,
+            } => {
+                write!(
+                    f,
+                    "{vertices} vertices, {triangles} triangles; bbox {bbox_min_m:?} .. \
+                     {bbox_max_m:?} m; closed volume {volume_m3:.4e} m^3"
+                )?;
+                repairs.iter().try_for_each(|l| write!(f, "\nrepair: {l}"))
+            }
+            MeshReport::Tets {
+                nodes,
+                tets,
+                boundary_triangles,
+                volume_m3,
+                notes,
+            } => {
+                write!(
+                    f,
+                    "{nodes} nodes, {tets} tetrahedra, {boundary_triangles} boundary triangles; \
+                     volume {volume_m3:.4e} m^3"
+                )?;
+                notes.iter().try_for_each(|l| write!(f, "\nnote: {l}"))
+            }
+        }
+    }
+}
+
 /// Reads `path` (scaled by `scale`) and reports it, repairing surfaces (holes up to
 /// `max_hole_edges` filled).
 ///
