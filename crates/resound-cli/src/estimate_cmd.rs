@@ -6,8 +6,8 @@ use clap::{Args, Subcommand};
 use resound::core::Material;
 use resound::io::library::{read_material, write_material};
 use resound::material::{
-    check_name_free, estimate_files, estimate_plot, library_material as get, list_materials,
-    open_library, read_library, store_material, EstimateFiles, EstimateMaterialParams, Origin,
+    check_name_free, estimate_files, library_material as get, list_materials, open_library,
+    read_library, store_material, EstimateFiles, EstimateMaterialParams,
 };
 use resound::object::ObjectParams;
 use resound::recording::TakeSelection;
@@ -153,16 +153,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
         let title = a.audio[0]
             .file_name()
             .map_or(String::new(), |s| s.to_string_lossy().into_owned());
-        let analysis = &out.takes[0].analysis;
-        estimate_plot(
-            path,
-            &title,
-            analysis,
-            &out.model,
-            &out.hit,
-            info,
-            &job.params.estimate,
-        )?;
+        out.plot(path, &title, &job.params.estimate)?;
     }
     if a.name.is_some() {
         store_material(a.library.as_deref(), material, a.force)?;
@@ -254,21 +245,16 @@ pub fn run_materials(c: MaterialsCmd) -> Result<()> {
                 );
             }
             for (m, origin) in list_materials(lib.as_ref())? {
-                println!(
-                    "{:<16} alpha {:.4e}  beta {:.4e}  gamma {:.4e}  sigma {:.4e}{}",
+                let line = format!(
+                    "{:<16} alpha {:.4e}  beta {:.4e}  gamma {:.4e}  sigma {:.4e}  {}",
                     m.name,
                     m.alpha,
                     m.beta,
                     m.gamma,
                     m.sigma,
-                    match origin {
-                        Origin::Builtin => "  (built-in)",
-                        Origin::Library => "",
-                        Origin::Estimated => "  (estimated)",
-                        Origin::LegacyTable1 =>
-                            "  (Ren Table I in mesh units, from an old library: remove it)",
-                    }
+                    origin.note()
                 );
+                println!("{}", line.trim_end());
             }
         }
         MaterialsCmd::Show(a) => {

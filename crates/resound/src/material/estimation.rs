@@ -753,6 +753,28 @@ pub struct EstimateOutcome {
     pub notes: Vec<String>,
 }
 
+impl EstimateOutcome {
+    /// Draws the estimate ([`estimate_plot`]) against the first take's analysis to `path`.
+    ///
+    /// # Errors
+    /// No take; as [`estimate_plot`].
+    pub fn plot(&self, path: &Path, title: &str, params: &EstimateParams) -> Result<()> {
+        let take = self
+            .takes
+            .first()
+            .ok_or_else(|| Error::Invalid("no take to draw the estimate against".into()))?;
+        estimate_plot(
+            path,
+            title,
+            &take.analysis,
+            &self.model,
+            &self.hit,
+            &self.info,
+            params,
+        )
+    }
+}
+
 /// Analyses `job`'s recordings, loads or solves the object and estimates the material
 /// ([`estimate_on_model`]). `progress` hears every stage: the modal solve, the acoustic
 /// transfer (with a microphone and a model without one) and the estimate.

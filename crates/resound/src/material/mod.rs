@@ -111,6 +111,18 @@ pub enum Origin {
     LegacyTable1,
 }
 
+impl Origin {
+    /// A note for a listing (empty for a plain library entry).
+    pub fn note(self) -> &'static str {
+        match self {
+            Origin::Builtin => "(built-in)",
+            Origin::Library => "",
+            Origin::Estimated => "(estimated)",
+            Origin::LegacyTable1 => "(Ren Table I in mesh units, from an old library: remove it)",
+        }
+    }
+}
+
 /// Every material a name can reach: the library's entries and the built-ins it does not hold,
 /// sorted by name.
 ///
