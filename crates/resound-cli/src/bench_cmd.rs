@@ -5,13 +5,14 @@ use anyhow::Result;
 use clap::{Args, Subcommand};
 use resound_bench::run;
 
-/// Declares a benchmark's flags once: the clap struct here and its conversion into the
-/// runner's plain arguments of the same name in resound-bench (`run::…`).
+/// Declares a benchmark's flags once: the clap struct here (every field a `--long` flag) and
+/// its conversion into the runner's plain arguments of the same name in resound-bench
+/// (`run::…`).
 macro_rules! bench_args {
     ($(#[$m:meta])* $name:ident { $($(#[$fm:meta])* $f:ident: $t:ty,)* }) => {
         $(#[$m])*
         #[derive(Args, Debug)]
-        pub struct $name { $($(#[$fm])* pub $f: $t,)* }
+        pub struct $name { $($(#[$fm])* #[arg(long)] pub $f: $t,)* }
         impl From<$name> for run::$name {
             fn from(a: $name) -> Self {
                 Self { $($f: a.$f,)* }
@@ -65,13 +66,12 @@ bench_args! {
     /// Arguments of `bench radiation`.
     RadiationBenchArgs {
         /// JSON on stdout.
-        #[arg(long)]
         json: bool,
         /// Modes.
-        #[arg(long, default_value_t = 200)]
+        #[arg(default_value_t = 200)]
         modes: usize,
         /// Most equivalent sources of the fit.
-        #[arg(long, default_value_t = 800)]
+        #[arg(default_value_t = 800)]
         sources: usize,
     }
 }
@@ -80,19 +80,18 @@ bench_args! {
     /// Arguments of `bench batch`.
     BatchBenchArgs {
         /// JSON on stdout.
-        #[arg(long)]
         json: bool,
         /// Meshes (boxes of different sizes).
-        #[arg(long, default_value_t = 20)]
+        #[arg(default_value_t = 20)]
         meshes: usize,
         /// Hit points per mesh (one job each).
-        #[arg(long, default_value_t = 10)]
+        #[arg(default_value_t = 10)]
         hits: usize,
         /// Modes per model.
-        #[arg(long, default_value_t = 60)]
+        #[arg(default_value_t = 60)]
         modes: usize,
         /// Length of each strike, s.
-        #[arg(long, default_value_t = 1.0)]
+        #[arg(default_value_t = 1.0)]
         duration_s: f64,
     }
 }
@@ -101,20 +100,19 @@ bench_args! {
     /// Arguments of `bench live`.
     LiveBenchArgs {
         /// JSON on stdout.
-        #[arg(long)]
         json: bool,
         /// Bodies of the main run.
-        #[arg(long, default_value_t = 100)]
+        #[arg(default_value_t = 100)]
         bodies: usize,
         /// Seconds of the main run.
-        #[arg(long, default_value_t = 60.0)]
+        #[arg(default_value_t = 60.0)]
         seconds: f64,
         /// Samples per callback.
-        #[arg(long, default_value_t = 256)]
+        #[arg(default_value_t = 256)]
         block: usize,
         /// Largest body count tried when searching for the first deadline miss (doubling from
         /// `--bodies`, 5 s each).
-        #[arg(long, default_value_t = 3200)]
+        #[arg(default_value_t = 3200)]
         max_bodies: usize,
     }
 }
@@ -123,11 +121,9 @@ bench_args! {
     /// Arguments of `bench grains`.
     GrainsBenchArgs {
         /// JSON on stdout.
-        #[arg(long)]
         json: bool,
         /// The shared recordings (with `spatialaudio-ramp/` and `minetest-game/`); default: the
         /// first of ../shared/data/recordings, /work/shared/data/recordings that exists.
-        #[arg(long)]
         data: Option<std::path::PathBuf>,
     }
 }
@@ -136,7 +132,6 @@ bench_args! {
     /// Arguments of `bench stats`.
     StatsBenchArgs {
         /// JSON on stdout.
-        #[arg(long)]
         json: bool,
     }
 }
@@ -145,19 +140,17 @@ bench_args! {
     /// Arguments of `bench scene`.
     SceneBenchArgs {
         /// JSON on stdout.
-        #[arg(long)]
         json: bool,
         /// Body counts.
-        #[arg(long, default_value = "10,100", value_delimiter = ',')]
+        #[arg(default_value = "10,100", value_delimiter = ',')]
         bodies: Vec<usize>,
         /// Seconds of audio.
-        #[arg(long, default_value_t = 10.0)]
+        #[arg(default_value_t = 10.0)]
         seconds: f64,
         /// Keep the scene files, library, cache and WAVs in this directory (default: a temporary one).
-        #[arg(long)]
         dir: Option<std::path::PathBuf>,
         /// Physics steps per second (the scene files' default).
-        #[arg(long, default_value_t = 240.0)]
+        #[arg(default_value_t = 240.0)]
         steps_per_second: f64,
     }
 }
@@ -166,16 +159,15 @@ bench_args! {
     /// Arguments of `bench synth`.
     SynthBenchArgs {
         /// JSON on stdout.
-        #[arg(long)]
         json: bool,
         /// Modes in the bank.
-        #[arg(long, default_value_t = 4096)]
+        #[arg(default_value_t = 4096)]
         modes: usize,
         /// Seconds of audio rendered per measurement.
-        #[arg(long, default_value_t = 2.0)]
+        #[arg(default_value_t = 2.0)]
         seconds: f64,
         /// Residual transfer events.
-        #[arg(long, default_value_t = 200)]
+        #[arg(default_value_t = 200)]
         events: usize,
     }
 }
@@ -184,10 +176,8 @@ bench_args! {
     /// Arguments of `bench estimate`.
     EstimateBenchArgs {
         /// JSON on stdout.
-        #[arg(long)]
         json: bool,
         /// Skip the closed-form / synthesize+STFT comparison rows.
-        #[arg(long)]
         no_synthesized: bool,
     }
 }
@@ -196,32 +186,29 @@ bench_args! {
     /// Arguments of `bench analyze`.
     AnalyzeBenchArgs {
         /// JSON on stdout.
-        #[arg(long)]
         json: bool,
         /// Single damped sinusoids (protocol 1).
-        #[arg(long, default_value_t = 100)]
+        #[arg(default_value_t = 100)]
         trials: usize,
         /// Mixtures per SNR (protocol 2).
-        #[arg(long, default_value_t = 40)]
+        #[arg(default_value_t = 40)]
         mixtures: usize,
         /// SNRs of protocol 2, dB.
-        #[arg(long, default_value = "60,40,25")]
+        #[arg(default_value = "60,40,25")]
         snr_db: String,
         /// Random seed.
-        #[arg(long, default_value_t = 1)]
+        #[arg(default_value_t = 1)]
         seed: u64,
         /// Skip the stage-1-only (Ren 2013 alone) comparison rows.
-        #[arg(long)]
         no_stage1: bool,
         /// Cases per SNR of the wide protocol (4): 20 Hz–22 kHz, d 0.1–1000 1/s, doublets, a noisy
         /// lead-in with a DC offset (0: skip).
-        #[arg(long, default_value_t = 40)]
+        #[arg(default_value_t = 40)]
         wide: usize,
         /// SNRs of the wide protocol, dB.
-        #[arg(long, default_value = "100,60,40,25")]
+        #[arg(default_value = "100,60,40,25")]
         wide_snr_db: String,
         /// Run only the wide protocol.
-        #[arg(long)]
         wide_only: bool,
     }
 }
@@ -230,23 +217,21 @@ bench_args! {
     /// Arguments of `bench modal`.
     ModalBenchArgs {
         /// JSON on stdout.
-        #[arg(long)]
         json: bool,
         /// Target DOF counts.
-        #[arg(long, default_value = "10000,30000,100000", value_delimiter = ',')]
+        #[arg(default_value = "10000,30000,100000", value_delimiter = ',')]
         dofs: Vec<usize>,
         /// Elastic modes per solve.
-        #[arg(long, default_value_t = 200)]
+        #[arg(default_value_t = 200)]
         modes: usize,
         /// Meshes: bar, spot.
-        #[arg(long, default_value = "bar,spot")]
+        #[arg(default_value = "bar,spot")]
         meshes: String,
         /// Also certify the count with a Sturm check (one more factorization).
-        #[arg(long)]
         sturm: bool,
         /// Also run faer's single-vector Lanczos (the baseline) on cases up to this many DOFs and
         /// report the speed-up ratio measured in the same run (0: off).
-        #[arg(long, default_value_t = 0)]
+        #[arg(default_value_t = 0)]
         compare_up_to: usize,
     }
 }
@@ -255,19 +240,14 @@ bench_args! {
     /// One case (hidden subcommand).
     CaseArgs {
         /// bar or spot.
-        #[arg(long)]
         mesh: String,
         /// Target DOFs.
-        #[arg(long)]
         target_dofs: usize,
         /// Elastic modes.
-        #[arg(long)]
         modes: usize,
         /// Sturm check.
-        #[arg(long)]
         sturm: bool,
         /// Use faer's single-vector Lanczos instead of block Lanczos.
-        #[arg(long)]
         faer_lanczos: bool,
     }
 }
