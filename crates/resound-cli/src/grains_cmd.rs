@@ -1,9 +1,10 @@
 //! `resound grains`: grain dictionaries (Picard, Tsingos & Faure 2009).
 
 use anyhow::{Context, Result};
-use clap::{Args, Subcommand, ValueEnum};
+use clap::{Args, Subcommand};
 use resound::grain_files::{
-    analyze_to_file, load_recordings, resynthesize_recording, summary, KindRule,
+    analyze_to_file, load_recordings, parse_kind, recording_spec, resynthesize_recording, summary,
+    KindRule,
 };
 use resound::grains::quality::spectral_convergence_db;
 use resound::grains::resynth::ResynthParams;
@@ -21,21 +22,6 @@ pub enum GrainsCmd {
     Info(InfoArgs),
 }
 
-/// Kind of contact of the recordings.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum KindArg {
-    /// From the file name (roll…, slid…/scrap…) or else the envelope (sustained or bursts).
-    Auto,
-    /// Impacts, hits, breaking.
-    Impact,
-    /// Rolling.
-    Rolling,
-    /// Sliding, scraping.
-    Sliding,
-    /// Continuous contact of unknown kind.
-    Continuous,
-}
-
 /// Arguments of `grains analyze`.
 #[derive(Args, Debug)]
 pub struct AnalyzeArgs {
@@ -43,9 +29,9 @@ pub struct AnalyzeArgs {
     /// `rolling:`, `sliding:` or `continuous:` to set its kind.
     #[arg(required = true)]
     pub recordings: Vec<String>,
-    /// Kind of the recordings without a prefix.
-    #[arg(long, value_enum, default_value = "auto")]
-    pub kind: KindArg,
+    /// Kind of the recordings without a prefix: auto, impact, rolling, sliding or continuous.
+    #[arg(long, default_value = "auto", value_parser = kind_rule)]
+    pub kind: KindRule,
     /// Analysis sample rate (default: the first recording's); others are resampled.
     #[arg(long, value_name = "HZ")]
     pub sample_rate: Option<u32>,
@@ -102,35 +88,21 @@ pub struct InfoArgs {
     pub dictionary: PathBuf,
 }
 
-impl KindArg {
-    fn rule(self) -> KindRule {
-        match self {
-            KindArg::Auto => KindRule::Auto,
-            KindArg::Impact => KindRule::Fixed(Contact::Impact),
-            KindArg::Rolling => KindRule::Fixed(Contact::Rolling),
-            KindArg::Sliding => KindRule::Fixed(Contact::Sliding),
-            KindArg::Continuous => KindRule::Fixed(Contact::Continuous),
-        }
-    }
+/// Runs `grains`.
+fn kind_rule(s: &str) -> Result<KindRule> {
+    parse_kind(s).context("one of auto, impact, rolling, sliding, continuous")
 }
 
-/// Runs `grains`.
 pub fn run(c: GrainsCmd) -> Result<()> {
     match c {
         GrainsCmd::Analyze(a) => {
             let inputs: Vec<&std::path::Path> = a
                 .recordings
                 .iter()
-                .map(|r| {
-                    std::path::Path::new(
-                        r.split_once(':')
-                            .filter(|_| !std::path::Path::new(r).exists())
-                            .map_or(r.as_str(), |(_, p)| p),
-                    )
-                })
+                .map(|r| recording_spec(r, a.kind).1)
                 .collect();
             crate::util::check_paths(&inputs, &[&a.output])?;
-            let (recs, fs, _) = load_recordings(&a.recordings, a.kind.rule(), a.sample_rate)?;
+            let (recs, fs, _) = load_recordings(&a.recordings, a.kind, a.sample_rate)?;
             let mut params = AnalyzeParams::default();
             params.segment.min_db = a.min_db;
             params.pattern.peaks_per_part = a.peaks;

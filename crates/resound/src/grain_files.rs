@@ -16,6 +16,18 @@ pub enum KindRule {
     Fixed(Contact),
 }
 
+/// A recording given as `PATH` or `KIND:PATH` (a file of that name wins): its kind rule
+/// (`rule` unless the spec names one) and its path.
+pub fn recording_spec(spec: &str, rule: KindRule) -> (KindRule, &Path) {
+    match spec.split_once(':') {
+        Some((p, rest)) if !Path::new(spec).exists() => match parse_kind(p) {
+            Some(k) => (k, Path::new(rest)),
+            None => (rule, Path::new(spec)),
+        },
+        _ => (rule, Path::new(spec)),
+    }
+}
+
 /// Parses a contact kind name (`impact`, `rolling`, `sliding`, `continuous`, `auto`).
 pub fn parse_kind(name: &str) -> Option<KindRule> {
     Some(match name.to_ascii_lowercase().as_str() {
@@ -78,13 +90,7 @@ pub fn load_recordings(
     let mut bytes = 0usize;
     let mut total_s = 0.0;
     for spec in specs {
-        let (k, path) = match spec.split_once(':') {
-            Some((p, rest)) if !Path::new(spec).exists() && parse_kind(p).is_some() => {
-                (parse_kind(p).unwrap_or(rule), rest)
-            }
-            _ => (rule, spec.as_str()),
-        };
-        let path = Path::new(path);
+        let (k, path) = recording_spec(spec, rule);
         bytes += std::fs::metadata(path).map_or(0, |m| m.len() as usize);
         let clip = resound_io::load_audio(path)?;
         let x = clip.mono(None, path)?;
