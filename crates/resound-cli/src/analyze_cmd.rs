@@ -40,8 +40,7 @@ pub struct AnalyzeArgs {
 
 /// Runs `analyze`.
 pub fn run(a: AnalyzeArgs) -> Result<()> {
-    let outs: Vec<&std::path::Path> = a.json.iter().chain(&a.plot).map(|p| p.as_path()).collect();
-    crate::util::check_paths(&[&a.audio], &outs)?;
+    crate::util::check_paths([&a.audio], a.json.iter().chain(&a.plot))?;
     let params = AnalyzeParams {
         max_modes: a.max_modes,
         min_db: a.min_db,

@@ -49,25 +49,8 @@ pub fn run(a: BatchArgs) -> Result<()> {
     } else {
         println!("shard {}: {info}", a.shard);
     }
-    if !info.failures.is_empty() {
-        for f in &info.failures {
-            eprintln!(
-                "error: {}: line {}: {}",
-                a.jobs.display(),
-                f.line,
-                f.message
-            );
-        }
-        bail!(
-            "{} of {} jobs of this shard failed (lines {})",
-            info.failures.len(),
-            info.shard_jobs,
-            info.failures
-                .iter()
-                .map(|f| f.line.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+    if let Some(failed) = info.failure_report(&a.jobs) {
+        bail!("{failed}");
     }
     Ok(())
 }

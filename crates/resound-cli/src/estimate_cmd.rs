@@ -3,10 +3,9 @@
 use crate::util::{parse_vec3, print_json, warn_all, Bar};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
-use resound::core::Material;
 use resound::io::library::{read_material, write_material};
 use resound::material::{
-    check_name_free, estimate_files, library_material as get, list_materials, open_library,
+    check_name_free, estimate_files, library_material as get, list_library, open_library,
     read_library, store_material, EstimateFiles, EstimateMaterialParams,
 };
 use resound::object::ObjectParams;
@@ -83,37 +82,15 @@ pub struct EstimateArgs {
     pub mic: Option<String>,
 }
 
-/// The object settings of `--scale`, `--modes` and `--reference-material`.
-pub fn object_params(scale: f64, modes: usize, reference_material: &str) -> Result<ObjectParams> {
-    Ok(ObjectParams {
-        scale,
-        modal: resound::modal::ModalParams {
-            n_modes: Some(modes),
-            ..Default::default()
-        },
-        reference_material: Material::parse(reference_material)?,
-    })
-}
-
 /// Runs `estimate`.
 pub fn run(a: EstimateArgs) -> Result<()> {
-    let outs: Vec<&Path> = a
-        .output
-        .iter()
-        .chain(&a.plot)
-        .map(|p| p.as_path())
-        .collect();
-    let mut inputs: Vec<&Path> = a.audio.iter().map(|p| p.as_path()).collect();
-    inputs.push(&a.mesh);
-    crate::util::check_paths(&inputs, &outs)?;
+    crate::util::check_paths(
+        a.audio.iter().chain([&a.mesh]),
+        a.output.iter().chain(&a.plot),
+    )?;
     if let Some(name) = &a.name {
         check_name_free(a.library.as_deref(), name, a.force)?;
     }
-    let name = a.name.clone().unwrap_or_else(|| {
-        a.audio[0]
-            .file_stem()
-            .map_or("estimated".into(), |s| s.to_string_lossy().into_owned())
-    });
     let job = EstimateFiles {
         recordings: a.audio.clone(),
         recording: a.take.recording(),
@@ -127,10 +104,10 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             every_channel: a.every_channel,
         },
         object: a.mesh.clone(),
-        object_params: object_params(a.scale, a.modes, &a.reference_material)?,
+        object_params: ObjectParams::new(a.scale, a.modes, &a.reference_material)?,
         hit_m: parse_vec3(&a.hit)?,
         params: EstimateMaterialParams {
-            name: name.clone(),
+            name: a.name.clone().unwrap_or_default(),
             residual: !a.no_residual,
             allow_implausible: a.allow_implausible,
             mic_m: a.mic.as_deref().map(parse_vec3).transpose()?,
@@ -141,9 +118,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     let out = estimate_files(&job, &pb.callback());
     pb.finish_and_clear();
     let out = out?;
-    for n in &out.notes {
-        eprintln!("note: {n}");
-    }
+    crate::util::notes(&out.notes);
     let (material, info) = (&out.material, &out.info);
     warn_all(&info.warnings);
     if let Some(o) = &a.output {
@@ -233,29 +208,9 @@ fn existing(path: &Option<PathBuf>) -> Result<resound::io::library::Library> {
 pub fn run_materials(c: MaterialsCmd) -> Result<()> {
     match c {
         MaterialsCmd::List(a) => {
-            let lib = read_library(a.library.as_deref())?;
-            if lib.is_none() {
-                eprintln!(
-                    "note: no material library at {} yet: the built-ins only (estimate --name or \
-                     materials import creates it)",
-                    a.library
-                        .clone()
-                        .or_else(resound::io::library::default_library_path)
-                        .map_or_else(|| "the default path".into(), |p| p.display().to_string())
-                );
-            }
-            for (m, origin) in list_materials(lib.as_ref())? {
-                let line = format!(
-                    "{:<16} alpha {:.4e}  beta {:.4e}  gamma {:.4e}  sigma {:.4e}  {}",
-                    m.name,
-                    m.alpha,
-                    m.beta,
-                    m.gamma,
-                    m.sigma,
-                    origin.note()
-                );
-                println!("{}", line.trim_end());
-            }
+            let listing = list_library(a.library.as_deref())?;
+            crate::util::notes(listing.note.as_slice());
+            print!("{listing}");
         }
         MaterialsCmd::Show(a) => {
             let lib = read_library(a.library.as_deref())?;
@@ -270,7 +225,7 @@ pub fn run_materials(c: MaterialsCmd) -> Result<()> {
             eprintln!("imported {:?}", m.name);
         }
         MaterialsCmd::Export(a) => {
-            crate::util::check_paths(&[], &[&a.file])?;
+            crate::util::check_paths(std::iter::empty::<&Path>(), [&a.file])?;
             let lib = read_library(a.library.as_deref())?;
             write_material(&a.file, &get(lib.as_ref(), &a.name)?)?;
         }

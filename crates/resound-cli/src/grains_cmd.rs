@@ -3,12 +3,11 @@
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use resound::grain_files::{
-    analyze_to_file, load_recordings, parse_kind, recording_spec, resynthesize_recording, summary,
+    analyze_to_file, load_recordings, parse_kind, recording_spec, resynthesize_for_file, summary,
     KindRule,
 };
-use resound::grains::quality::spectral_convergence_db;
 use resound::grains::resynth::ResynthParams;
-use resound::grains::{AnalyzeParams, Contact};
+use resound::grains::AnalyzeParams;
 use std::path::PathBuf;
 
 /// `resound grains …`.
@@ -79,6 +78,9 @@ pub struct ResynthArgs {
     /// Output WAV.
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Print the report (length, level, spectral convergence) as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Arguments of `grains info`.
@@ -96,12 +98,8 @@ fn kind_rule(s: &str) -> Result<KindRule> {
 pub fn run(c: GrainsCmd) -> Result<()> {
     match c {
         GrainsCmd::Analyze(a) => {
-            let inputs: Vec<&std::path::Path> = a
-                .recordings
-                .iter()
-                .map(|r| recording_spec(r, a.kind).1)
-                .collect();
-            crate::util::check_paths(&inputs, &[&a.output])?;
+            let inputs = a.recordings.iter().map(|r| recording_spec(r, a.kind).1);
+            crate::util::check_paths(inputs, [&a.output])?;
             let (recs, fs, _) = load_recordings(&a.recordings, a.kind, a.sample_rate)?;
             let mut params = AnalyzeParams::default();
             params.segment.min_db = a.min_db;
@@ -118,51 +116,23 @@ pub fn run(c: GrainsCmd) -> Result<()> {
             }
         }
         GrainsCmd::Resynth(a) => {
-            let inputs: Vec<&std::path::Path> = std::iter::once(&a.dictionary)
-                .chain(&a.reference)
-                .map(|p| p.as_path())
-                .collect();
-            crate::util::check_paths(&inputs, &[&a.output])?;
+            crate::util::check_paths([&a.dictionary].into_iter().chain(&a.reference), [&a.output])?;
             let d = resound::io::grains_file::load(&a.dictionary)?;
             let p = ResynthParams {
                 time_scale: a.time_scale,
                 variation: a.variation,
                 seed: a.seed,
             };
-            let y = resynthesize_recording(&d, &a.recording, &p)
+            let r = resynthesize_for_file(&d, &a.recording, &p, a.reference.as_deref())
                 .with_context(|| a.dictionary.display().to_string())?;
-            if let Some(r) = &a.reference {
-                let (o, _, _) = load_recordings(
-                    &[r.to_string_lossy().into_owned()],
-                    KindRule::Fixed(Contact::Impact),
-                    Some(d.sample_rate_hz as u32),
-                )?;
-                println!(
-                    "spectral convergence {:.2} dB",
-                    spectral_convergence_db(&o[0].samples, &y, d.sample_rate_hz)
-                );
+            crate::util::warn_all(&r.info.warnings);
+            crate::util::notes(&r.info.notes);
+            let fs = d.sample_rate_hz as u32;
+            resound::io::write_wav(&a.output, &r.samples, fs, resound::io::WavFormat::Float32)?;
+            if a.json {
+                return crate::util::print_json(&r.info);
             }
-            let mut out = y;
-            let level =
-                resound::synth::render::normalize(&mut out, resound::synth::render::CEILING)?;
-            crate::util::warn_all(&level.quiet_warning().into_iter().collect::<Vec<_>>());
-            if level.gain_db < 0.0 {
-                eprintln!(
-                    "note: turned down by {:.1} dB to stay below full scale",
-                    -level.gain_db
-                );
-            }
-            resound::io::write_wav(
-                &a.output,
-                &out,
-                d.sample_rate_hz as u32,
-                resound::io::WavFormat::Float32,
-            )?;
-            eprintln!(
-                "wrote {} ({:.3} s)",
-                a.output.display(),
-                out.len() as f64 / d.sample_rate_hz
-            );
+            eprintln!("wrote {} ({})", a.output.display(), r.info);
         }
         GrainsCmd::Info(a) => {
             let d = resound::io::grains_file::load(&a.dictionary)?;

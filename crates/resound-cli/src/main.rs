@@ -144,7 +144,10 @@ enum Advice {
 /// What to do about a library error, in this CLI's flags: the library names no flag, so the
 /// advice for each of its error variants lives here (Python says the same with its keywords).
 fn advice(e: &anyhow::Error) -> Option<Advice> {
-    const FLAGS: [(&str, &str); 6] = [
+    const FLAGS: [(&str, &str); 9] = [
+        ("gain_db", "--gain-db"),
+        ("max_duration_s", "--max-duration-s"),
+        ("floor_db", "--floor-db"),
         ("max_freq_hz", "--max-freq-hz"),
         ("speed_m_s", "--velocity"),
         ("duration_s", "--duration"),
@@ -162,6 +165,9 @@ fn advice(e: &anyhow::Error) -> Option<Advice> {
     }
     Some(Advice::Hint(match root {
         resound::Error::Exists(_) => "pass --force to replace it".into(),
+        resound::Error::Model(resound::core::ModalModelError::PoissonMismatch { .. }) => {
+            "or pass --keep-nu to take only its E/ρ".into()
+        }
         resound::Error::Implausible(_) => "keep it anyway with --allow-implausible".into(),
         resound::Error::NoLiveAudio => "rebuild with `cargo build --release --features live`, \
             or render to a file"

@@ -3,8 +3,7 @@
 use crate::util::parse_list;
 use anyhow::Result;
 use clap::{Args, Subcommand};
-use resound::io::save_surface;
-use resound::mesh::{check_mesh, make_primitive, PrimitiveKind};
+use resound::mesh::{check_mesh, write_primitive, PrimitiveKind};
 use std::path::PathBuf;
 
 /// Mesh subcommands.
@@ -61,15 +60,8 @@ fn parse_kind(s: &str) -> std::result::Result<PrimitiveKind, String> {
 pub fn run(c: MeshCmd) -> Result<()> {
     match c {
         MeshCmd::Primitive(a) => {
-            let m = make_primitive(a.kind, &parse_list(&a.size)?, a.segments)?;
-            save_surface(&a.output, &m)?;
-            eprintln!(
-                "wrote {} ({} vertices, {} triangles, volume {:.4e} m^3)",
-                a.output.display(),
-                m.vertices.len(),
-                m.triangles.len(),
-                m.signed_volume()
-            );
+            let info = write_primitive(a.kind, &parse_list(&a.size)?, a.segments, &a.output)?;
+            eprintln!("wrote {} ({info})", a.output.display());
         }
         MeshCmd::Check(a) => {
             let r = check_mesh(&a.mesh, a.scale, a.max_hole_edges)?;

@@ -6,7 +6,7 @@ use clap::Args;
 use resound::core::Material;
 use resound::io::model_file;
 use resound::modal::ModalParams;
-use resound::object::{solve_object, ModalReport, SolveJob, SolveOutcome};
+use resound::object::{solve_object, SolveJob, SolveOutcome};
 use std::path::PathBuf;
 
 /// Arguments of `resound modal`.
@@ -105,10 +105,7 @@ fn params(a: &ModalArgs) -> ModalParams {
 
 /// Runs `resound modal`.
 pub fn run(a: ModalArgs) -> Result<()> {
-    crate::util::check_paths(
-        &[&a.mesh],
-        &a.output.iter().map(|p| p.as_path()).collect::<Vec<_>>(),
-    )?;
+    crate::util::check_paths([&a.mesh], &a.output)?;
     let job = SolveJob {
         mesh: a.mesh.clone(),
         scale: a.scale,
@@ -147,51 +144,13 @@ pub fn run(a: ModalArgs) -> Result<()> {
 
 /// Runs `resound model`.
 pub fn run_info(a: ModelInfoArgs) -> Result<()> {
-    let t0 = std::time::Instant::now();
-    let mut model = model_file::load(&a.model)?;
-    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
-    if let Some(m) = &a.material {
-        let mut target = Material::parse(m)?;
-        if a.keep_nu {
-            if (target.poisson_ratio - model.material.poisson_ratio).abs() > 1e-12 {
-                eprintln!(
-                    "note: keeping the model's Poisson ratio {} (not {}): frequencies scale \
-                     exactly by E/ρ, but they are the modes of a material with that ν",
-                    model.material.poisson_ratio, target.poisson_ratio
-                );
-            }
-            target.poisson_ratio = model.material.poisson_ratio;
-        }
-        model = model
-            .rescaled(&target)
-            .map_err(|e| anyhow::anyhow!("{e} (or pass --keep-nu to take only its E/ρ)"))?;
-    }
-    let hit = a
-        .hit
-        .as_deref()
-        .map(parse_vec3)
-        .transpose()?
-        .map(|h| model.hit(h))
-        .transpose()?;
-    let mut report = ModalReport::new(&model, None, hit.as_ref());
+    let material = a.material.as_deref().map(Material::parse).transpose()?;
+    let hit = a.hit.as_deref().map(parse_vec3).transpose()?;
+    let info = resound::object::model_info(&a.model, material.as_ref(), a.keep_nu, hit)?;
+    crate::util::notes(&info.notes);
     if a.json {
-        report.load_ms = Some(load_ms);
-        return print_json(&report);
+        return print_json(&info);
     }
-    let m = &model.material;
-    println!(
-        "{}: {} modes, {} surface vertices, material {} (E {:.3e} Pa, nu {}, rho {} kg/m^3); loaded in {load_ms:.2} ms",
-        a.model.display(), model.n_modes(), model.n_vertices(), m.name, m.youngs_modulus, m.poisson_ratio, m.density
-    );
-    if let Some(t) = &model.transfer {
-        println!(
-            "acoustic transfer: order up to {}, {:.1} MB, centre {:?} m, radius {:.4} m",
-            t.max_order(),
-            t.coeff_bytes() as f64 / 1e6,
-            t.centre_m,
-            t.radius_m
-        );
-    }
-    print!("{report}");
+    print!("{info}");
     Ok(())
 }

@@ -7,33 +7,9 @@ use resound::scene::{render_scene, SceneRenderParams, SceneSummary};
 use serde::Serialize;
 use std::path::PathBuf;
 
-/// The scene format, shown by `resound scene --help`.
-const FORMAT: &str = "\
-Scene file (TOML; y is up, SI units):
-  duration = 4.0            # s
-  sample_rate = 48000       # Hz
-  seed = 7
-  stereo = true
-  [listener]
-  position = [0.0, 0.35, 0.7]
-  [[body]]                  # one table per body
-  name = \"ball\"
-  shape = { sphere = 0.02 } # or box = [x, y, z], plate = [x, y, thickness],
-                            # cylinder = [radius, height], bowl = [radius, thickness, depth],
-                            # mesh = \"file.obj\"
-  material = \"metal\"      # library or built-in name, material file, or preset:NAME
-  density = 7850            # kg/m³
-  position = [0, 0.3, 0]    # m; also rotation (degrees), velocity (m/s),
-                            # angular_velocity (rad/s), restitution, friction
-  fixed = false             # a fixed body (the table) does not move
-  modes = 40                # modes solved for its sound
-  # sound = { grains = \"x.grains\", gain = 1.0 } or { stats = \"x.stats.json\" }
-Every field: the docs of resound_io::scene::BodyFile. A full example: assets/scenes/demo.toml
-(`resound demo` writes it with its materials to demo-out/scene.toml).";
-
 /// Arguments of `scene`.
 #[derive(Args, Debug)]
-#[command(after_long_help = FORMAT)]
+#[command(after_long_help = resound::io::scene::FORMAT_HELP)]
 pub struct SceneArgs {
     /// Scene file (TOML: bodies, materials, listener; the format is at the end of --help).
     pub scene: PathBuf,
@@ -88,13 +64,7 @@ struct Output<'a> {
 
 /// Runs `scene`.
 pub fn run(a: SceneArgs) -> Result<()> {
-    let outs: Vec<&std::path::Path> = a
-        .output
-        .iter()
-        .chain(&a.events)
-        .map(|p| p.as_path())
-        .collect();
-    crate::util::check_paths(&[&a.scene], &outs)?;
+    crate::util::check_paths([&a.scene], a.output.iter().chain(&a.events))?;
     let mut params = SceneRenderParams {
         library: a.library.clone(),
         cache_dir: if a.no_cache {
@@ -105,9 +75,6 @@ pub fn run(a: SceneArgs) -> Result<()> {
         keep_level: a.keep_level,
         live: None,
     };
-    if !(a.gain_db.is_finite() && a.gain_db.abs() <= 120.0) {
-        anyhow::bail!("--gain-db must be within ±120 dB, got {}", a.gain_db);
-    }
     if a.live {
         let r = resound::live::play_scene(&a.scene, &params, a.block as usize, a.gain_db, &|p| {
             eprintln!("{p}")
@@ -129,9 +96,7 @@ pub fn run(a: SceneArgs) -> Result<()> {
     pb.finish_and_clear();
     let r = r?;
     crate::util::warn_all(&r.summary.warnings);
-    for n in &r.summary.notes {
-        eprintln!("note: {n}");
-    }
+    crate::util::notes(&r.summary.notes);
     let refs: Vec<&[f32]> = r.channels.iter().map(|c| c.as_slice()).collect();
     write_wav_channels(output, &refs, r.sample_rate_hz, WavFormat::Pcm24)?;
     if let Some(p) = &a.events {

@@ -1,6 +1,6 @@
 //! `resound scrape`: a probe scraped over a surface texture (Traer et al. 2019 §4).
 
-use crate::synth_cmd::FormatArg;
+use crate::util::named;
 use anyhow::{bail, Result};
 use clap::Args;
 use resound::core::DampedMode;
@@ -59,33 +59,27 @@ pub struct ScrapeArgs {
     #[arg(short, long)]
     pub output: PathBuf,
     /// Output sample format.
-    #[arg(long, value_enum, default_value = "pcm24")]
-    pub format: FormatArg,
+    #[arg(long, value_name = "pcm16|pcm24|float", default_value = "pcm24", value_parser = named::<WavFormat>)]
+    pub format: WavFormat,
     /// JSON summary on stdout.
     #[arg(long)]
     pub json: bool,
 }
 
 fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
-    let source = a.object.source(
-        a.seed,
-        crate::estimate_cmd::object_params(1.0, 200, "ceramic")?,
-    )?;
+    let source = a.object.source(a.seed, Default::default())?;
     let pb = crate::util::Bar::new("modal");
     let made = resound::strike::source_modes(&source, fs, &pb.callback());
     pb.finish_and_clear();
     let (modes, notes) = made?;
-    for n in notes {
-        eprintln!("note: {n}");
-    }
+    crate::util::notes(&notes);
     Ok(modes)
 }
 
 /// Runs `scrape`.
 pub fn run(a: ScrapeArgs) -> Result<()> {
-    let mut inputs = a.object.inputs();
-    inputs.extend(a.trajectory.as_deref());
-    crate::util::check_paths(&inputs, &[&a.output])?;
+    let inputs = a.object.inputs().into_iter().chain(a.trajectory.as_deref());
+    crate::util::check_paths(inputs, [&a.output])?;
     let fs = f64::from(a.sample_rate);
     let path = match (&a.trajectory, a.speed) {
         (Some(t), _) => Path1d::Trajectory(read_trajectory(t)?),
@@ -117,18 +111,8 @@ pub fn run(a: ScrapeArgs) -> Result<()> {
     };
     let r = render_scrape(&job)?;
     crate::util::warn_all(&r.info.warnings);
-    if r.info.gain_db < 0.0 {
-        eprintln!(
-            "note: peak {:.2} of full scale; turned down by {:.1} dB (no clipping)",
-            r.info.peak, -r.info.gain_db
-        );
-    }
-    write_wav(
-        &a.output,
-        &r.samples,
-        a.sample_rate,
-        WavFormat::from(a.format),
-    )?;
+    crate::util::notes(&r.info.notes);
+    write_wav(&a.output, &r.samples, a.sample_rate, a.format)?;
     if a.json {
         crate::util::print_json(&r.info)?;
     } else {

@@ -1,6 +1,6 @@
 //! `resound stats`: per-material mode statistics (Traer et al. 2019).
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
@@ -47,8 +47,7 @@ pub struct ImportArgs {
 pub fn run(c: StatsCmd) -> Result<()> {
     match c {
         StatsCmd::Fit(a) => {
-            let inputs: Vec<&std::path::Path> = a.recordings.iter().map(|p| p.as_path()).collect();
-            crate::util::check_paths(&inputs, &[&a.output])?;
+            crate::util::check_paths(&a.recordings, [&a.output])?;
             let pb = crate::util::Bar::new("stats");
             let s = resound::files::fit_stats(
                 &a.recordings,
@@ -68,12 +67,7 @@ pub fn run(c: StatsCmd) -> Result<()> {
             );
         }
         StatsCmd::ImportPyimpact(a) => {
-            let tables = resound::files::import_pyimpact(&a.dir)?;
-            std::fs::create_dir_all(&a.output)
-                .with_context(|| format!("creating {}", a.output.display()))?;
-            for (name, s) in &tables {
-                resound::files::write_json(&a.output.join(format!("{name}.stats.json")), s)?;
-            }
+            let tables = resound::files::import_pyimpact_into(&a.dir, &a.output)?;
             eprintln!(
                 "imported {} tables into {}",
                 tables.len(),

@@ -1,57 +1,14 @@
 //! `resound synth`: render one strike of an object made of a material, or of analysed modes.
 
-use crate::estimate_cmd::object_params;
-use crate::util::parse_vec3;
+use crate::util::{named, parse_vec3};
 use anyhow::Result;
-use clap::{Args, ValueEnum};
+use clap::Args;
 use resound::core::Material;
 use resound::io::{write_wav, WavFormat};
 use resound::strike::{render_strike_from, StrikeInfo, StrikeParams};
 use resound::synth::excitation::ContactModel;
 use serde::Serialize;
 use std::path::PathBuf;
-
-/// Contact force law.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum ContactArg {
-    /// Hertz contact: duration shrinks with speed.
-    Hertz,
-    /// Linear spring (Traer eq. 5): half sine, fixed duration.
-    Spring,
-    /// Ideal impulse.
-    Impulse,
-}
-
-/// Output sample format.
-#[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum FormatArg {
-    /// 16-bit PCM.
-    Pcm16,
-    /// 24-bit PCM.
-    Pcm24,
-    /// 32-bit float.
-    Float,
-}
-
-impl From<ContactArg> for ContactModel {
-    fn from(c: ContactArg) -> Self {
-        match c {
-            ContactArg::Hertz => ContactModel::Hertz,
-            ContactArg::Spring => ContactModel::Spring,
-            ContactArg::Impulse => ContactModel::Impulse,
-        }
-    }
-}
-
-impl From<FormatArg> for WavFormat {
-    fn from(f: FormatArg) -> Self {
-        match f {
-            FormatArg::Pcm16 => WavFormat::Pcm16,
-            FormatArg::Pcm24 => WavFormat::Pcm24,
-            FormatArg::Float => WavFormat::Float32,
-        }
-    }
-}
 
 /// Arguments of `synth`.
 #[derive(Args, Debug)]
@@ -74,8 +31,8 @@ pub struct SynthArgs {
     #[arg(long, default_value = "steel")]
     pub impactor_material: String,
     /// Contact force law.
-    #[arg(long, value_enum, default_value = "hertz")]
-    pub contact: ContactArg,
+    #[arg(long, value_name = "hertz|spring|impulse", default_value = "hertz", value_parser = named::<ContactModel>)]
+    pub contact: ContactModel,
     /// Leave out the material's residual (Ren §6).
     #[arg(long)]
     pub no_residual: bool,
@@ -103,8 +60,8 @@ pub struct SynthArgs {
     #[arg(short, long)]
     pub output: PathBuf,
     /// Output sample format.
-    #[arg(long, value_enum, default_value = "pcm24")]
-    pub format: FormatArg,
+    #[arg(long, value_name = "pcm16|pcm24|float", default_value = "pcm24", value_parser = named::<WavFormat>)]
+    pub format: WavFormat,
     /// Print a JSON summary.
     #[arg(long)]
     pub json: bool,
@@ -125,13 +82,13 @@ struct Output<'a> {
 
 /// Runs `synth`.
 pub fn run(a: SynthArgs) -> Result<()> {
-    crate::util::check_paths(&a.object.inputs(), &[&a.output])?;
+    crate::util::check_paths(a.object.inputs(), [&a.output])?;
     let params = StrikeParams {
         speed_m_s: a.velocity,
         impactor_mass_kg: a.impactor_mass,
         impactor_radius_m: a.impactor_radius,
         impactor: Material::parse(&a.impactor_material)?,
-        contact: a.contact.into(),
+        contact: a.contact,
         residual: !a.no_residual,
         duration_s: a.duration,
         sample_rate_hz: a.sample_rate,
@@ -139,25 +96,17 @@ pub fn run(a: SynthArgs) -> Result<()> {
     };
     let source = a.object.source(
         a.seed,
-        object_params(a.scale, a.mesh_modes, &a.reference_material)?,
+        resound::object::ObjectParams::new(a.scale, a.mesh_modes, &a.reference_material)?,
     )?;
     let pb = crate::util::Bar::new("synth");
     let made = render_strike_from(&source, &params, &pb.callback());
     pb.finish_and_clear();
     let (mut strike, notes) = made?;
-    for n in notes {
-        eprintln!("note: {n}");
-    }
-    resound::strike::level_for_file(&mut strike)?;
-    let info = &strike.info;
-    crate::util::warn_all(&info.warnings);
-    if info.gain_db < 0.0 {
-        eprintln!(
-            "note: peak {:.2} of full scale; turned down by {:.1} dB to −1 dBFS (no clipping)",
-            info.peak, -info.gain_db
-        );
-    }
-    write_wav(&a.output, &strike.samples, a.sample_rate, a.format.into())?;
+    crate::util::notes(&notes);
+    let level_note = resound::strike::level_for_file(&mut strike)?;
+    crate::util::warn_all(&strike.info.warnings);
+    crate::util::notes(level_note.as_slice());
+    write_wav(&a.output, &strike.samples, a.sample_rate, a.format)?;
     if a.play {
         resound::live::play(
             &strike,

@@ -3,7 +3,7 @@
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// Parses `x,y,z`.
@@ -128,7 +128,20 @@ fn bar_style() -> ProgressStyle {
         .unwrap_or_else(|_| ProgressStyle::default_bar())
 }
 
-/// Prints `v` as pretty JSON on stdout.
+/// Parses a flag value as a library enum by the name its files use (serde's), so the CLI
+/// keeps no copy of the library's enums; the error lists the names.
+pub fn named<T: serde::de::DeserializeOwned>(s: &str) -> std::result::Result<T, String> {
+    serde_json::from_value(serde_json::Value::String(s.into())).map_err(|e| e.to_string())
+}
+
+/// Prints notes on stderr.
+pub fn notes<S: std::fmt::Display>(notes: &[S]) {
+    for n in notes {
+        eprintln!("note: {n}");
+    }
+}
+
+/// Prints a report as pretty JSON on stdout.
 pub fn print_json<T: Serialize>(v: &T) -> Result<()> {
     println!("{}", serde_json::to_string_pretty(v)?);
     Ok(())
@@ -142,8 +155,14 @@ pub fn warn_all(warnings: &[resound::Warning]) {
 }
 
 /// Checks output paths before any work ([`resound::files::check_outputs`]).
-pub fn check_paths(inputs: &[&std::path::Path], outputs: &[&std::path::Path]) -> Result<()> {
-    Ok(resound::files::check_outputs(inputs, outputs)?)
+pub fn check_paths<I: AsRef<Path>, O: AsRef<Path>>(
+    inputs: impl IntoIterator<Item = I>,
+    outputs: impl IntoIterator<Item = O>,
+) -> Result<()> {
+    let (i, o): (Vec<I>, Vec<O>) = (inputs.into_iter().collect(), outputs.into_iter().collect());
+    let i: Vec<&Path> = i.iter().map(AsRef::as_ref).collect();
+    let o: Vec<&Path> = o.iter().map(AsRef::as_ref).collect();
+    Ok(resound::files::check_outputs(&i, &o)?)
 }
 
 /// Which part of a recording to take (shared by `analyze` and `estimate`).

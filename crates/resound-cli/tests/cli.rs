@@ -1176,7 +1176,7 @@ fn grains_analyze_resynth_and_drive_a_scene() {
     }
     assert!(v["compression_ratio"].as_f64().unwrap() > 0.0);
     // Time-scaling by 2 doubles the length within one grain (70 ms).
-    ok(&resound(
+    let r1: Value = serde_json::from_str(&ok(&resound(
         &[
             "grains",
             "resynth",
@@ -1185,9 +1185,11 @@ fn grains_analyze_resynth_and_drive_a_scene() {
             "default_dug_metal.1",
             "-o",
             "x1.wav",
+            "--json",
         ],
         d,
-    ));
+    )))
+    .unwrap();
     ok(&resound(
         &[
             "grains",
@@ -1203,6 +1205,12 @@ fn grains_analyze_resynth_and_drive_a_scene() {
         d,
     ));
     let n1 = resound::io::load_audio(&d.join("x1.wav")).unwrap().frames() as f64;
+    // The report describes the file written.
+    let fs1 = r1["sample_rate_hz"].as_f64().unwrap();
+    assert!(
+        (r1["duration_s"].as_f64().unwrap() * fs1 - n1).abs() < 1.0,
+        "{r1} vs {n1} frames"
+    );
     let n2 = resound::io::load_audio(&d.join("x2.wav")).unwrap().frames() as f64;
     assert!((n2 - 2.0 * n1).abs() <= 0.07 * 44_100.0, "{n1} → {n2}");
     fails_with(

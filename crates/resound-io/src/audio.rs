@@ -387,14 +387,16 @@ pub fn load_audio(path: &Path) -> Result<AudioClip> {
     })
 }
 
-/// Sample format of written WAV files.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Sample format of written WAV files (named `pcm16`, `pcm24`, `float`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum WavFormat {
     /// 16-bit PCM (rounded without dither, clipped to full scale).
     Pcm16,
     /// 24-bit PCM.
     Pcm24,
     /// 32-bit IEEE float.
+    #[serde(rename = "float", alias = "float32")]
     Float32,
 }
 

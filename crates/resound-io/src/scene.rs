@@ -56,6 +56,30 @@
 //! (and gives) while it rests, slides or rolls on another with its weight (0: none). Errors
 //! name the line and the field.
 
+/// The scene format in brief, for a front end's help (`resound scene --help`).
+pub const FORMAT_HELP: &str = "\
+Scene file (TOML; y is up, SI units):
+  duration = 4.0            # s
+  sample_rate = 48000       # Hz
+  seed = 7
+  stereo = true
+  [listener]
+  position = [0.0, 0.35, 0.7]
+  [[body]]                  # one table per body
+  name = \"ball\"
+  shape = { sphere = 0.02 } # or box = [x, y, z], plate = [x, y, thickness],
+                            # cylinder = [radius, height], bowl = [radius, thickness, depth],
+                            # mesh = \"file.obj\"
+  material = \"metal\"      # library or built-in name, material file, or preset:NAME
+  density = 7850            # kg/m³
+  position = [0, 0.3, 0]    # m; also rotation (degrees), velocity (m/s),
+                            # angular_velocity (rad/s), restitution, friction
+  fixed = false             # a fixed body (the table) does not move
+  modes = 40                # modes solved for its sound
+  # sound = { grains = \"x.grains\", gain = 1.0 } or { stats = \"x.stats.json\" }
+Every field: the docs of resound_io::scene::BodyFile. A full example: assets/scenes/demo.toml
+(`resound demo` writes it with its materials to demo-out/scene.toml).";
+
 use serde::Deserialize;
 use std::path::Path;
 

@@ -58,6 +58,22 @@ pub struct LogMelDistance {
     pub compared_s: f64,
 }
 
+impl std::fmt::Display for LogMelDistance {
+    /// The distance with what it means, then one line per FFT size.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        writeln!(
+            f,
+            "log-mel distance {:.4} (onsets at {:.4} s and {:.4} s, {:.3} s compared; 0 = same \
+             shape, 1 = a factor of 10 in band power on average)",
+            self.distance, self.onsets_s.0, self.onsets_s.1, self.compared_s
+        )?;
+        for (size, v) in &self.per_resolution {
+            writeln!(f, "  FFT {size:>5}: {v:.4}")?;
+        }
+        Ok(())
+    }
+}
+
 /// Why two signals cannot be compared.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum CompareError {

@@ -29,8 +29,9 @@ pub struct Elastic {
     pub poisson_ratio: f64,
 }
 
-/// Which force law.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Which force law (named `spring`, `hertz`, `impulse` in files and on the command line).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum ContactModel {
     /// Linear spring: half sine, duration independent of speed (Traer eq. 5).
     Spring,

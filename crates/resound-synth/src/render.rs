@@ -67,6 +67,16 @@ pub struct LevelReport {
 pub const QUIET_DBFS: f32 = resound_core::limits::INAUDIBLE_DBFS as f32;
 
 impl LevelReport {
+    /// What a front end says when the gain turned the render down (none when it did not).
+    pub fn note(&self) -> Option<String> {
+        (self.gain_db < 0.0).then(|| {
+            format!(
+                "peak {:.2} of full scale; turned down by {:.1} dB to −1 dBFS (no clipping)",
+                self.peak_before, -self.gain_db
+            )
+        })
+    }
+
     /// Peak before any gain, dBFS (−∞ for silence).
     pub fn peak_dbfs(&self) -> f32 {
         20.0 * self.peak_before.log10()

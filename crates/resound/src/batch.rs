@@ -217,6 +217,28 @@ impl std::fmt::Display for BatchInfo {
     }
 }
 
+impl BatchInfo {
+    /// The error a front end ends with when jobs of this shard failed: one line per failed
+    /// job (`jobs` is the jobs file), then the count. `None` when every job ran.
+    pub fn failure_report(&self, jobs: &std::path::Path) -> Option<String> {
+        if self.failures.is_empty() {
+            return None;
+        }
+        let mut out = String::new();
+        for f in &self.failures {
+            out += &format!("{}: line {}: {}\n", jobs.display(), f.line, f.message);
+        }
+        let lines: Vec<String> = self.failures.iter().map(|f| f.line.to_string()).collect();
+        out += &format!(
+            "{} of {} jobs of this shard failed (lines {})",
+            self.failures.len(),
+            self.shard_jobs,
+            lines.join(", ")
+        );
+        Some(out)
+    }
+}
+
 /// Parses `i/N` (index from 0).
 ///
 /// # Errors

@@ -165,6 +165,28 @@ pub fn import_pyimpact(dir: &Path) -> Result<Vec<(String, ModeStatistics)>> {
     Ok(out)
 }
 
+/// Imports every PyImpact table in `dir` ([`import_pyimpact`]) as `<name>.stats.json` files
+/// in `out_dir` (created when missing); returns the files written.
+///
+/// # Errors
+/// As [`import_pyimpact`]; an unwritable directory.
+pub fn import_pyimpact_into(dir: &Path, out_dir: &Path) -> Result<Vec<std::path::PathBuf>> {
+    let tables = import_pyimpact(dir)?;
+    std::fs::create_dir_all(out_dir).map_err(|e| {
+        Error::from(resound_io::IoError::Io {
+            path: out_dir.to_path_buf(),
+            error: e,
+        })
+    })?;
+    let mut written = Vec::new();
+    for (name, s) in &tables {
+        let p = out_dir.join(format!("{name}.stats.json"));
+        write_json(&p, s)?;
+        written.push(p);
+    }
+    Ok(written)
+}
+
 /// Checks output paths before any work (so nothing is half done when one is bad): each output's directory exists, no output is one of
 /// the inputs (an `analyze x.wav --plot x.wav` would destroy the recording), and no two outputs
 /// coincide. `-` (stdout) is not a path.

@@ -308,6 +308,87 @@ pub fn resynthesize_recording(
     Ok(y)
 }
 
+/// A recording rebuilt from a dictionary for a file (`grains resynth`): the samples and its
+/// report.
+#[derive(Clone, Debug)]
+pub struct Resynthesis {
+    /// Mono samples at the dictionary's rate, turned down when they would clip.
+    pub samples: Vec<f32>,
+    /// The report.
+    pub info: ResynthInfo,
+}
+
+/// What [`resynthesize_for_file`] did.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct ResynthInfo {
+    /// Sample rate, Hz.
+    pub sample_rate_hz: f64,
+    /// Length, s.
+    pub duration_s: f64,
+    /// Spectral convergence against the reference recording, dB (lower is closer).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spectral_convergence_db: Option<f64>,
+    /// Peak before any level change, full scale = 1.
+    pub peak: f32,
+    /// Level change applied to avoid clipping, dB (0 or negative).
+    pub gain_db: f32,
+    /// Things the user should know (an inaudible render).
+    pub warnings: Vec<resound_core::Warning>,
+    /// Notes (the render turned down).
+    pub notes: Vec<String>,
+}
+
+impl std::fmt::Display for ResynthInfo {
+    /// Length, and the distance to the reference when there is one.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:.3} s", self.duration_s)?;
+        if let Some(sc) = self.spectral_convergence_db {
+            write!(f, ", spectral convergence {sc:.2} dB against the reference")?;
+        }
+        Ok(())
+    }
+}
+
+/// Rebuilds recording `spec` of `d` as [`resynthesize_recording`] does, compares it with the
+/// `reference` recording when given (read at the dictionary's rate) and levels it for a file.
+///
+/// # Errors
+/// As [`resynthesize_recording`]; an unreadable reference; non-finite samples.
+pub fn resynthesize_for_file(
+    d: &Dictionary,
+    spec: &str,
+    params: &ResynthParams,
+    reference: Option<&Path>,
+) -> Result<Resynthesis> {
+    let mut samples = resynthesize_recording(d, spec, params)?;
+    let spectral_convergence_db = match reference {
+        Some(r) => {
+            let (o, _, _) = load_recordings(
+                &[r.to_string_lossy().into_owned()],
+                KindRule::Fixed(Contact::Impact),
+                Some(d.sample_rate_hz as u32),
+            )?;
+            Some(spectral_convergence_db(
+                &o[0].samples,
+                &samples,
+                d.sample_rate_hz,
+            ))
+        }
+        None => None,
+    };
+    let level = resound_synth::render::normalize(&mut samples, resound_synth::render::CEILING)?;
+    let info = ResynthInfo {
+        sample_rate_hz: d.sample_rate_hz,
+        duration_s: samples.len() as f64 / d.sample_rate_hz,
+        spectral_convergence_db,
+        peak: level.peak_before,
+        gain_db: level.gain_db,
+        warnings: level.quiet_warning().into_iter().collect(),
+        notes: level.note().into_iter().collect(),
+    };
+    Ok(Resynthesis { samples, info })
+}
+
 /// What [`analyze_to_file`] made.
 #[derive(Clone, Debug, Serialize)]
 pub struct DictionaryFile {

@@ -175,6 +175,7 @@ pub fn play_scene(
 ) -> Result<LivePlayReport> {
     use cpal::traits::{DeviceTrait, StreamTrait};
     use resound_physics::live::{live_scene, run_physics, LiveParams};
+    check_gain_db(gain_db)?;
     use resound_synth::scene_audio::AudioStats;
     use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -251,10 +252,22 @@ pub fn play_scene(
     _path: &std::path::Path,
     _params: &crate::scene::SceneRenderParams,
     _block: usize,
-    _gain_db: f64,
+    gain_db: f64,
     _progress: crate::ProgressFn<'_>,
 ) -> Result<LivePlayReport> {
+    check_gain_db(gain_db)?;
     Err(Error::NoLiveAudio)
+}
+
+/// The live gain must be a level change a person could mean: within ±120 dB.
+fn check_gain_db(gain_db: f64) -> Result<()> {
+    if gain_db.is_finite() && gain_db.abs() <= 120.0 {
+        return Ok(());
+    }
+    Err(Error::Param {
+        field: "gain_db",
+        message: format!("the live gain must be within ±120 dB, got {gain_db}"),
+    })
 }
 
 /// Without the `live` feature there is no audio device support.

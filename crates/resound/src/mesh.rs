@@ -44,6 +44,47 @@ impl PrimitiveKind {
     }
 }
 
+/// What [`write_primitive`] wrote.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct PrimitiveInfo {
+    /// Surface vertices.
+    pub vertices: usize,
+    /// Surface triangles.
+    pub triangles: usize,
+    /// Enclosed volume, m³.
+    pub volume_m3: f64,
+}
+
+impl std::fmt::Display for PrimitiveInfo {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} vertices, {} triangles, volume {:.4e} m^3",
+            self.vertices, self.triangles, self.volume_m3
+        )
+    }
+}
+
+/// Makes a primitive ([`make_primitive`]) and saves it to `out` (OBJ, STL or PLY by its
+/// extension).
+///
+/// # Errors
+/// As [`make_primitive`]; an unwritable file.
+pub fn write_primitive(
+    kind: PrimitiveKind,
+    sizes_m: &[f64],
+    segments: usize,
+    out: &Path,
+) -> Result<PrimitiveInfo> {
+    let m = make_primitive(kind, sizes_m, segments)?;
+    resound_io::save_surface(out, &m)?;
+    Ok(PrimitiveInfo {
+        vertices: m.vertices.len(),
+        triangles: m.triangles.len(),
+        volume_m3: m.signed_volume(),
+    })
+}
+
 /// A primitive surface from its sizes (m) and, for round shapes, `segments` around.
 ///
 /// # Errors

@@ -33,6 +33,24 @@ impl Default for ObjectParams {
     }
 }
 
+impl ObjectParams {
+    /// `n_modes` modes of the mesh scaled by `scale`, solved with the reference material
+    /// `reference` (a preset name or `E,nu,rho`).
+    ///
+    /// # Errors
+    /// An unknown or invalid reference material.
+    pub fn new(scale: f64, n_modes: usize, reference: &str) -> Result<Self> {
+        Ok(Self {
+            scale,
+            modal: ModalParams {
+                n_modes: Some(n_modes),
+                ..Default::default()
+            },
+            reference_material: Material::parse(reference)?,
+        })
+    }
+}
+
 /// Whether `path` names a saved modal model.
 pub fn is_model_file(path: &Path) -> bool {
     path.extension()
@@ -562,5 +580,112 @@ pub fn solve_object(job: &SolveJob, progress: ProgressFn<'_>) -> Result<SolveOut
         report,
         hit,
         repairs,
+    })
+}
+
+/// A saved model's summary (`resound model`): its modes as [`ModalReport`], where it came
+/// from and what a rescale to another material did.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ModelInfo {
+    /// The `.rmodal` file.
+    pub path: std::path::PathBuf,
+    /// The modes (rescaled when a material was given), with gains at the hit.
+    #[serde(flatten)]
+    pub report: ModalReport,
+    /// The stored acoustic transfer, when the model holds one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stored_transfer: Option<StoredTransferRow>,
+    /// What the user should know (a Poisson ratio kept).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
+}
+
+/// The acoustic transfer stored in a model file.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StoredTransferRow {
+    /// Highest multipole order.
+    pub max_order: usize,
+    /// Size of its coefficients, bytes.
+    pub coeff_bytes: usize,
+    /// Expansion centre, m.
+    pub centre_m: [f64; 3],
+    /// Radius of the sphere outside which it holds, m.
+    pub radius_m: f64,
+}
+
+impl std::fmt::Display for ModelInfo {
+    /// The header (counts, material, load time), the stored transfer, then the modes.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (r, m) = (&self.report, &self.report.material);
+        writeln!(
+            f,
+            "{}: {} modes, {} surface vertices, material {} (E {:.3e} Pa, nu {}, rho {} kg/m^3); \
+             loaded in {:.2} ms",
+            self.path.display(),
+            r.modes.len(),
+            r.surface_vertices,
+            m.name,
+            m.youngs_modulus_pa,
+            m.poisson_ratio,
+            m.density_kg_m3,
+            r.load_ms.unwrap_or(0.0)
+        )?;
+        if let Some(t) = &self.stored_transfer {
+            writeln!(
+                f,
+                "acoustic transfer: order up to {}, {:.1} MB, centre {:?} m, radius {:.4} m",
+                t.max_order,
+                t.coeff_bytes as f64 / 1e6,
+                t.centre_m,
+                t.radius_m
+            )?;
+        }
+        write!(f, "{r}")
+    }
+}
+
+/// Loads a saved model, rescales it to `material` when given (keeping the model's Poisson
+/// ratio when `keep_nu`: frequencies then scale exactly by E/ρ), and reports its modes with
+/// the gains at `hit_m`.
+///
+/// # Errors
+/// An unreadable file; a material whose ν differs (without `keep_nu`); a hit off the surface.
+pub fn model_info(
+    path: &Path,
+    material: Option<&Material>,
+    keep_nu: bool,
+    hit_m: Option<[f64; 3]>,
+) -> Result<ModelInfo> {
+    let t0 = std::time::Instant::now();
+    let mut model = model_file::load(path)?;
+    let load_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let mut notes = Vec::new();
+    if let Some(target) = material {
+        let mut target = target.clone();
+        let nu = model.material.poisson_ratio;
+        if keep_nu && (target.poisson_ratio - nu).abs() > 1e-12 {
+            notes.push(format!(
+                "keeping the model's Poisson ratio {nu} (not {}): frequencies scale exactly by \
+                 E/ρ, but they are the modes of a material with that ν",
+                target.poisson_ratio
+            ));
+            target.poisson_ratio = nu;
+        }
+        model = model.rescaled(&target)?;
+    }
+    let hit = hit_m.map(|h| model.hit(h)).transpose()?;
+    let mut report = ModalReport::new(&model, None, hit.as_ref());
+    report.load_ms = Some(load_ms);
+    let stored_transfer = model.transfer.as_ref().map(|t| StoredTransferRow {
+        max_order: t.max_order(),
+        coeff_bytes: t.coeff_bytes(),
+        centre_m: t.centre_m,
+        radius_m: t.radius_m,
+    });
+    Ok(ModelInfo {
+        path: path.to_path_buf(),
+        report,
+        stored_transfer,
+        notes,
     })
 }

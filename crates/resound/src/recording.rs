@@ -316,7 +316,8 @@ pub fn analyze_takes(
 /// mix).
 ///
 /// # Errors
-/// As [`load_recording`] and [`resound_signal::compare::log_mel_distance`].
+/// A compared length of 50 ms or less, a floor outside (0, 200] dB; as [`load_recording`]
+/// and [`resound_signal::compare::log_mel_distance`].
 pub fn compare_files(
     a: &Path,
     channel_a: Option<usize>,
@@ -324,6 +325,21 @@ pub fn compare_files(
     channel_b: Option<usize>,
     params: &resound_signal::compare::LogMelParams,
 ) -> Result<resound_signal::compare::LogMelDistance> {
+    if !(params.max_duration_s > 0.05 && params.max_duration_s.is_finite()) {
+        return Err(Error::Param {
+            field: "max_duration_s",
+            message: format!(
+                "the compared length must be above 0.05 s, got {} s",
+                params.max_duration_s
+            ),
+        });
+    }
+    if !(params.floor_db > 0.0 && params.floor_db <= 200.0) {
+        return Err(Error::Param {
+            field: "floor_db",
+            message: format!("the floor must be in (0, 200] dB, got {}", params.floor_db),
+        });
+    }
     let ra = load_recording(
         a,
         &RecordingParams {

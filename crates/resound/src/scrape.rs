@@ -120,6 +120,9 @@ pub struct ScrapeInfo {
     pub gain_db: f32,
     /// Things the user should know (an inaudible render).
     pub warnings: Vec<Warning>,
+    /// Notes for the user (the render turned down).
+    #[serde(default)]
+    pub notes: Vec<String>,
 }
 
 /// A rendered scrape.
@@ -217,6 +220,7 @@ pub fn render_scrape(job: &ScrapeJob) -> Result<ScrapeRender> {
             peak: level.peak_before,
             gain_db: level.gain_db,
             warnings: level.quiet_warning().into_iter().collect(),
+            notes: level.note().into_iter().collect(),
         },
     })
 }

@@ -129,15 +129,16 @@ impl StrikeInfo {
 }
 
 /// Turns a strike down to the file ceiling (−1 dBFS) when it would clip, as `resound synth`
-/// writes it; the gain goes into its report.
+/// writes it; the gain goes into its report. Returns the note a front end shows when it
+/// turned the strike down.
 ///
 /// # Errors
 /// Non-finite samples.
-pub fn level_for_file(strike: &mut Strike) -> Result<()> {
+pub fn level_for_file(strike: &mut Strike) -> Result<Option<String>> {
     let level =
         resound_synth::render::normalize(&mut strike.samples, resound_synth::render::CEILING)?;
     strike.info.gain_db = level.gain_db;
-    Ok(())
+    Ok(level.note())
 }
 
 /// Measures the strike's peak into its report, with the inaudibility warning (replacing an

@@ -731,7 +731,8 @@ pub struct EstimateFiles {
     /// Hit point, m (model coordinates; snapped to the surface).
     pub hit_m: [f64; 3],
     /// The estimate's settings (name, residual, microphone, …). `recording_name` and
-    /// `object_name` are filled in from the files.
+    /// `object_name` are filled in from the files, and an empty `name` by the first
+    /// recording's file stem.
     pub params: EstimateMaterialParams,
 }
 
@@ -792,10 +793,17 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
         analysed.extend(takes);
     }
     let model = crate::object::load_object(&job.object, &job.object_params, progress)?;
-    let params = EstimateMaterialParams {
+    let mut params = EstimateMaterialParams {
         object_name: job.object.display().to_string(),
         ..job.params.clone()
     };
+    if params.name.is_empty() {
+        params.name = job
+            .recordings
+            .first()
+            .and_then(|p| p.file_stem())
+            .map_or_else(|| "estimated".into(), |s| s.to_string_lossy().into_owned());
+    }
     let mut out = estimate_on_model(analysed, model, job.hit_m, &params, progress)?;
     notes.append(&mut out.notes);
     out.notes = notes;

@@ -123,6 +123,63 @@ impl Origin {
     }
 }
 
+/// One line of a material listing (`materials list`): name, the four constants and the origin.
+pub fn listing_line(m: &SoundMaterial, origin: Origin) -> String {
+    let line = format!(
+        "{:<16} alpha {:.4e}  beta {:.4e}  gamma {:.4e}  sigma {:.4e}  {}",
+        m.name,
+        m.alpha,
+        m.beta,
+        m.gamma,
+        m.sigma,
+        origin.note()
+    );
+    line.trim_end().to_string()
+}
+
+/// The materials a library (or the default one) lists, for `materials list` and the studio.
+#[derive(Clone, Debug, Serialize)]
+pub struct Listing {
+    /// Every material a name can reach, by name, with its origin.
+    pub materials: Vec<(SoundMaterial, Origin)>,
+    /// Why only the built-ins are listed (no library file yet).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+impl std::fmt::Display for Listing {
+    /// One [`listing_line`] per material.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (m, origin) in &self.materials {
+            writeln!(f, "{}", listing_line(m, *origin))?;
+        }
+        Ok(())
+    }
+}
+
+/// Lists the library at `path` (or the default one): its entries and the built-ins; a library
+/// that does not exist yet lists the built-ins with a note (nothing is created).
+///
+/// # Errors
+/// A file that is not a library.
+pub fn list_library(path: Option<&Path>) -> Result<Listing> {
+    let lib = read_library(path)?;
+    let note = lib.is_none().then(|| {
+        let at = path
+            .map(Path::to_path_buf)
+            .or_else(default_library_path)
+            .map_or_else(|| "the default path".into(), |p| p.display().to_string());
+        format!(
+            "no material library at {at} yet: the built-ins only (estimate --name or materials \
+             import creates it)"
+        )
+    });
+    Ok(Listing {
+        materials: list_materials(lib.as_ref())?,
+        note,
+    })
+}
+
 /// Every material a name can reach: the library's entries and the built-ins it does not hold,
 /// sorted by name.
 ///
