@@ -18,6 +18,7 @@ mod modal_cmd;
 mod scene_cmd;
 mod scrape_cmd;
 mod stats_cmd;
+mod studio_cmd;
 mod synth_cmd;
 mod util;
 
@@ -69,6 +70,7 @@ enum Command {
     /// Inspect a saved modal model, optionally rescaled to another material or at a hit point.
     Model(modal_cmd::ModelInfoArgs),
     /// Run the benchmarks and print their figures (table or JSON).
+    Studio(studio_cmd::StudioArgs),
     #[command(subcommand)]
     Bench(bench_cmd::BenchCmd),
     /// One benchmark case in a fresh process (used by `bench` to measure peak memory).
@@ -113,6 +115,7 @@ fn main() -> ExitCode {
         Command::Stats(c) => stats_cmd::run(c),
         Command::Scrape(a) => scrape_cmd::run(a),
         Command::Grains(c) => grains_cmd::run(c),
+        Command::Studio(a) => studio_cmd::run(a),
         Command::Bench(c) => bench_cmd::run(c),
         Command::BenchCase(a) => resound_bench::run::run_case(a.into()),
     };

@@ -149,7 +149,8 @@ pub fn run_info(a: ModelInfoArgs) -> Result<()> {
     let info = resound::object::model_info(&a.model, material.as_ref(), a.keep_nu, hit)?;
     crate::util::notes(&info.notes);
     if a.json {
-        return print_json(&info);
+        // The modal report alone: the document Python's `ModalModel.report` gives.
+        return print_json(&info.report);
     }
     print!("{info}");
     Ok(())

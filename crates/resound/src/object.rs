@@ -689,3 +689,68 @@ pub fn model_info(
         notes,
     })
 }
+
+/// An object's surface for a 3-D view (the studio's), optionally coloured by one mode.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SurfaceView {
+    /// Vertex positions x, y, z after one another, m.
+    pub vertices: Vec<f32>,
+    /// Triangles as vertex indices, three after one another (outward, counter-clockwise).
+    pub triangles: Vec<u32>,
+    /// The bounding box, lowest and highest corner, m.
+    pub bbox_m: [[f64; 3]; 2],
+    /// The mode shown, counting from 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mode: Option<usize>,
+    /// Its frequency, Hz.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub freq_hz: Option<f64>,
+    /// Its displacement magnitude at each vertex over the largest, 0–1 (nodes are near 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub displacement: Option<Vec<f32>>,
+}
+
+impl SurfaceView {
+    /// The surface of `model`, with mode `mode`'s displacement (counting from 1) when given.
+    ///
+    /// # Errors
+    /// No mode `mode`.
+    pub fn new(model: &ModalModel, mode: Option<usize>) -> Result<Self> {
+        let (lo, hi) = resound_core::geometry::bbox(&model.vertices);
+        let displacement = match mode {
+            None => None,
+            Some(k) if (1..=model.n_modes()).contains(&k) => {
+                let n = model.n_vertices();
+                let u = &model.shapes[(k - 1) * n * 3..k * n * 3];
+                let mag: Vec<f32> = u
+                    .chunks_exact(3)
+                    .map(|c| (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt())
+                    .collect();
+                let top = mag.iter().fold(0.0f32, |a, &v| a.max(v));
+                Some(if top > 0.0 {
+                    mag.iter().map(|v| v / top).collect()
+                } else {
+                    mag
+                })
+            }
+            Some(k) => {
+                return Err(crate::error::invalid(format!(
+                    "no mode {k}: the model has {} (counting from 1)",
+                    model.n_modes()
+                )))
+            }
+        };
+        Ok(Self {
+            vertices: model
+                .vertices
+                .iter()
+                .flat_map(|p| p.map(|c| c as f32))
+                .collect(),
+            triangles: model.triangles.iter().flatten().copied().collect(),
+            bbox_m: [lo, hi],
+            mode,
+            freq_hz: mode.map(|k| model.freq_hz(k - 1)),
+            displacement,
+        })
+    }
+}

@@ -368,3 +368,122 @@ pub fn compare_files(
         ))
     })
 }
+
+/// An analysed strike split for listening (the studio's A/B): what was recorded, what its
+/// modes make, and what they miss — each the analysed length from the onset, full scale = 1.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Resynthesis {
+    /// The analysed segment (conditioned as the modes were fitted to it).
+    pub recording: Vec<f64>,
+    /// The modes, resynthesized.
+    pub modes: Vec<f64>,
+    /// The recording minus the modes.
+    pub residual: Vec<f64>,
+}
+
+/// Splits an analysis into its [`Resynthesis`] parts.
+pub fn resynthesis(res: &Analysis) -> Resynthesis {
+    let recording = res.segment.clone();
+    let modes = resound_core::damped::synthesize(&res.modes, res.sample_rate_hz, recording.len());
+    let residual = recording.iter().zip(&modes).map(|(x, m)| x - m).collect();
+    Resynthesis {
+        recording,
+        modes,
+        residual,
+    }
+}
+
+/// Peak of a single mode played alone ([`one_mode`]): −6 dBFS.
+pub const ONE_MODE_PEAK: f64 = 0.5;
+
+/// Mode `k` (counting from 1, by frequency) of an analysis alone, for listening: the analysed
+/// length, normalized to [`ONE_MODE_PEAK`] (its level among the others is in the report).
+///
+/// # Errors
+/// No mode `k`; a mode that is silent over the analysed length.
+pub fn one_mode(res: &Analysis, k: usize) -> Result<Vec<f32>> {
+    let m = k
+        .checked_sub(1)
+        .and_then(|i| res.modes.get(i))
+        .ok_or_else(|| {
+            invalid(format!(
+                "no mode {k}: the analysis has {} (counting from 1)",
+                res.modes.len()
+            ))
+        })?;
+    let x = resound_core::damped::synthesize(
+        std::slice::from_ref(m),
+        res.sample_rate_hz,
+        res.samples.max(1),
+    );
+    let peak = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    if !(peak > 0.0 && peak.is_finite()) {
+        return Err(invalid(format!(
+            "mode {k} is silent over the analysed length"
+        )));
+    }
+    Ok(x.iter()
+        .map(|v| (ONE_MODE_PEAK * v / peak) as f32)
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn strike(modes: &[DampedMode], fs: f64) -> Vec<f64> {
+        // 50 ms of silence with a little noise, then the strike.
+        let mut x: Vec<f64> = (0..2400)
+            .map(|i| 1e-5 * ((i * 7919 % 13) as f64 - 6.0))
+            .collect();
+        x.extend(resound_core::damped::synthesize(modes, fs, 48_000));
+        x
+    }
+
+    #[test]
+    fn the_resynthesis_parts_add_up_and_the_modes_explain_a_clean_strike() {
+        let fs = 48_000.0;
+        let truth = [
+            DampedMode::new(440.0, 6.0, 0.3),
+            DampedMode::new(1230.0, 15.0, 0.2),
+            DampedMode::new(3100.0, 40.0, 0.1),
+        ];
+        let res = analyze_samples(&strike(&truth, fs), fs, &AnalyzeParams::default()).unwrap();
+        let p = resynthesis(&res);
+        assert_eq!(p.recording.len(), res.samples);
+        assert_eq!(p.modes.len(), res.samples);
+        for i in (0..res.samples).step_by(97) {
+            assert!((p.recording[i] - p.modes[i] - p.residual[i]).abs() < 1e-12);
+        }
+        let e = |x: &[f64]| x.iter().map(|v| v * v).sum::<f64>();
+        assert!(
+            e(&p.residual) < 1e-3 * e(&p.recording),
+            "residual {:.3e} of {:.3e}",
+            e(&p.residual),
+            e(&p.recording)
+        );
+    }
+
+    #[test]
+    fn one_mode_alone_is_that_mode_at_minus_6_dbfs() {
+        let fs = 48_000.0;
+        let truth = [
+            DampedMode::new(440.0, 6.0, 0.3),
+            DampedMode::new(1230.0, 15.0, 0.2),
+        ];
+        let res = analyze_samples(&strike(&truth, fs), fs, &AnalyzeParams::default()).unwrap();
+        let x = one_mode(&res, 2).unwrap();
+        let peak = x.iter().fold(0.0f32, |a, v| a.max(v.abs()));
+        assert!((f64::from(peak) - ONE_MODE_PEAK).abs() < 1e-6);
+        // Its pitch: zero crossings over the first 0.5 s.
+        let n = 24_000.min(x.len());
+        let crossings = x[..n]
+            .windows(2)
+            .filter(|w| w[0] <= 0.0 && w[1] > 0.0)
+            .count();
+        let f = crossings as f64 / (n as f64 / fs);
+        assert!((f - 1230.0).abs() < 5.0, "{f} Hz");
+        assert!(one_mode(&res, 0).is_err());
+        assert!(one_mode(&res, res.modes.len() + 1).is_err());
+    }
+}

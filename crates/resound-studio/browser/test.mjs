@@ -1,0 +1,188 @@
+// Resound Studio in a real browser (headless Debian chromium, driven by playwright-core):
+// open the page, load the bundled recording, see its modes, hear it, solve a primitive, pick
+// the hit point on it, estimate, save, audition the material on another shape, hear the render,
+// and check that the WAV the page plays is the one `resound synth` writes for the same inputs.
+//
+// usage: node test.mjs RESOUND_BINARY SCREENSHOT_DIR
+import { chromium } from "playwright-core";
+import { spawn, execFileSync } from "node:child_process";
+import { mkdirSync, mkdtempSync, writeFileSync, readFileSync, rmSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+import assert from "node:assert/strict";
+
+const [bin, shots] = process.argv.slice(2);
+if (!bin || !shots) {
+  console.error("usage: node test.mjs RESOUND_BINARY SCREENSHOT_DIR");
+  process.exit(2);
+}
+mkdirSync(shots, { recursive: true });
+const work = mkdtempSync(join(tmpdir(), "resound-studio-browser-"));
+const library = join(work, "lib.sqlite");
+const step = (msg) => console.log(`browser: ${msg}`);
+
+// The studio on any free port; it prints its address.
+const server = spawn(bin, ["studio", "--port", "0", "--library", library], { stdio: ["ignore", "pipe", "inherit"] });
+const url = await new Promise((resolve, reject) => {
+  let out = "";
+  server.stdout.on("data", (d) => {
+    out += d;
+    const m = out.match(/http:\/\/[0-9.:]+\//);
+    if (m) resolve(m[0]);
+  });
+  server.on("exit", (code) => reject(new Error(`the studio exited (${code}) before listening`)));
+  setTimeout(() => reject(new Error("the studio did not print its address in 60 s")), 60000);
+});
+step(`studio at ${url}`);
+
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || "/usr/bin/chromium",
+  args: [
+    "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+    "--autoplay-policy=no-user-gesture-required", "--disable-audio-output",
+  ],
+});
+const problems = [];
+let failed = false;
+const page = await browser.newPage({ viewport: { width: 1280, height: 900 } });
+try {
+  page.on("pageerror", (e) => problems.push(`page error: ${e.message}`));
+  // The refused second save (409) is provoked on purpose; any other error is a failure.
+  page.on("console", (m) => {
+    if (m.type() === "error" && !/status of 409/.test(m.text())) problems.push(`console: ${m.text()}`);
+  });
+  page.setDefaultTimeout(60000);
+  const shot = async (name) => {
+    await page.screenshot({ path: join(shots, `${name}.png`), fullPage: true });
+    step(`screenshot ${name}.png`);
+  };
+  const status = () => page.locator("#status").textContent();
+  const waitStatus = async (re, timeout = 600000) => {
+    await page.waitForFunction((src) => new RegExp(src).test(document.getElementById("status").textContent), re.source, { timeout });
+    const s = await page.locator("#status").getAttribute("class");
+    assert.notEqual(s, "error", `status is an error: ${await status()}`);
+  };
+
+  // 1. The page is interactive.
+  const t0 = Date.now();
+  await page.goto(url);
+  await waitStatus(/^ready$/);
+  const ready = Date.now() - t0;
+  step(`page interactive in ${ready} ms`);
+
+  // 2. The bundled recording: its strikes, modes and picture.
+  await page.selectOption("#sample", "steel_nut_M4_2.wav");
+  await page.click("#open-sample");
+  await waitStatus(/^analysed steel_nut_M4_2\.wav: \d+ modes$/);
+  const rows = await page.locator("#modes tbody tr").count();
+  assert.ok(rows >= 3, `only ${rows} modes shown`);
+  const firstF = Number(await page.locator("#modes tbody tr:first-child td:nth-child(2)").textContent());
+  assert.ok(firstF > 20 && firstF < 22050, `first mode at ${firstF} Hz`);
+  await page.waitForFunction(() => document.getElementById("spectrogram").naturalWidth > 0);
+  assert.match(await page.locator("#conditioning").textContent(), /strike/);
+
+  // Hear it: the clock advances and the analyser sees signal; switch to the modes mid-way
+  // (the position carries over).
+  await page.click('button[data-part="recording"]');
+  await page.waitForFunction(() => window.studio.position() > 0.15, null, { timeout: 10000 });
+  const heard = await page.evaluate(async () => {
+    let peak = 0;
+    for (let i = 0; i < 40; i++) { peak = Math.max(peak, window.studio.level()); await new Promise((r) => setTimeout(r, 10)); }
+    return peak;
+  });
+  assert.ok(heard > 1e-4, `the analyser heard nothing (peak ${heard})`);
+  const before = await page.evaluate(() => window.studio.position());
+  await page.click('button[data-part="modes"]');
+  const after = await page.evaluate(() => [window.studio.position(), window.studio.playing()]);
+  assert.equal(after[1], "modes");
+  assert.ok(after[0] >= before - 0.01, `A/B restarted: ${before} → ${after[0]}`);
+  await page.click("#stop");
+  await shot("1-recording");
+
+  // 3. The object: the demo's bar, solved with a progress bar; a click on it picks the hit.
+  await page.selectOption("#kind", "bar");
+  await page.fill("#sizes", "0.1,0.03,0.005");
+  await page.fill("#nmodes", "40");
+  await page.click("#solve");
+  await page.locator("#solve-job").waitFor({ state: "visible" });
+  await waitStatus(/^solved: 40 modes/);
+  const box = await page.locator("#view").boundingBox();
+  const hitBefore = await page.inputValue("#hit");
+  await page.locator("#view").click({ position: { x: box.width / 2, y: box.height / 2 } });
+  const picked = await page.inputValue("#hit");
+  assert.notEqual(picked, hitBefore, "a click on the object picked no hit point");
+  assert.equal(picked.split(",").length, 3);
+  await page.selectOption("#shape-mode", "1");
+  await page.waitForFunction(() => window.studio.state.surface && window.studio.state.surface.displacement);
+  // The demo's hit point, typed.
+  await page.fill("#hit", "0.02,0.01,0.0025");
+  await page.locator("#hit").dispatchEvent("change");
+  await shot("2-object");
+
+  // 4. Estimate, then save under a name; saving again is refused until "replace" is ticked.
+  await page.click("#estimate");
+  await waitStatus(/^estimated in/);
+  assert.match(await page.locator("#estimate-report").textContent(), /gamma/);
+  await page.waitForFunction(() => document.getElementById("estimate-plot").naturalWidth > 0);
+  await page.fill("#save-name", "studio-ramp");
+  await page.click("#save");
+  await waitStatus(/^saved studio-ramp/);
+  await page.click("#save");
+  await page.waitForFunction(() => /replace/.test(document.getElementById("status").textContent));
+  assert.equal(await page.locator("#status").getAttribute("class"), "error");
+  await page.check("#replace");
+  await page.click("#save");
+  await waitStatus(/^saved studio-ramp/);
+  assert.ok(await page.locator("#library td", { hasText: "studio-ramp" }).count() > 0);
+  await shot("3-material");
+
+  // 5. Audition on another shape: a plate, hit where a click lands.
+  await page.selectOption("#kind", "plate");
+  await page.fill("#sizes", "0.2,0.15,0.004");
+  await page.fill("#nmodes", "30");
+  await page.click("#solve");
+  await waitStatus(/^solved: 30 modes/);
+  const pbox = await page.locator("#view").boundingBox();
+  await page.locator("#view").click({ position: { x: pbox.width * 0.45, y: pbox.height * 0.45 } });
+  const hit = (await page.evaluate(() => window.studio.state.hit)).map(Number);
+  await page.selectOption("#audition-material", "studio-ramp");
+  await page.click("#render");
+  await waitStatus(/^rendered studio-ramp/);
+  await page.waitForFunction(() => window.studio.position() > 0.1, null, { timeout: 10000 });
+  const level = await page.evaluate(async () => {
+    let peak = 0;
+    for (let i = 0; i < 40; i++) { peak = Math.max(peak, window.studio.level()); await new Promise((r) => setTimeout(r, 10)); }
+    return peak;
+  });
+  assert.ok(level > 1e-4, `the render was not heard (peak ${level})`);
+  await page.click("#renders button:has-text('compare')");
+  await page.waitForFunction(() => document.querySelector("#renders .distance").textContent !== "–");
+  await shot("4-audition");
+
+  // 6. The WAV the page plays is the one the CLI writes for the same inputs.
+  const ids = await page.evaluate(() => [window.studio.state.object.id, window.studio.state.renders[0].id]);
+  const fetchBytes = (path) => page.evaluate(async (p) => Array.from(new Uint8Array(await (await fetch(p)).arrayBuffer())), path);
+  const served = Buffer.from(await fetchBytes(`/api/renders/${ids[1]}.wav`));
+  const model = join(work, "plate.rmodal");
+  writeFileSync(model, Buffer.from(await fetchBytes(`/api/objects/${ids[0]}/model.rmodal`)));
+  const cli = join(work, "cli.wav");
+  execFileSync(bin, ["synth", "--material", "studio-ramp", "--library", library, "--mesh", model,
+    "--hit", hit.map(String).join(","), "--velocity", "1", "--duration", "2", "-o", cli], { stdio: "inherit" });
+  assert.ok(served.equals(readFileSync(cli)), "the studio's WAV differs from resound synth's");
+  step("the served WAV equals resound synth's byte for byte");
+
+  assert.deepEqual(problems, [], problems.join("\n"));
+  step(`passed (page interactive in ${ready} ms)`);
+} catch (e) {
+  failed = true;
+  console.error(`browser test failed: ${e.stack || e}`);
+  await page.screenshot({ path: join(shots, "failure.png"), fullPage: true }).catch(() => {});
+  console.error(`status: ${await page.locator("#status").textContent().catch(() => "?")}; see ${join(shots, "failure.png")}`);
+  if (problems.length) console.error(problems.join("\n"));
+} finally {
+  await browser.close();
+  server.kill();
+  rmSync(work, { recursive: true, force: true });
+}
+process.exit(failed ? 1 : 0);

@@ -1,0 +1,562 @@
+// Resound Studio's page. It only shows what the API returns: every number and report text
+// comes from the library; the page draws, plays and sends requests.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+const state = { recording: null, object: null, surface: null, hit: null, estimate: null, renders: [] };
+
+function say(msg, error = false) {
+  const s = $("status");
+  s.textContent = msg;
+  s.className = error ? "error" : "";
+}
+
+async function api(path, opts = {}) {
+  const res = await fetch(path, opts);
+  const type = res.headers.get("content-type") || "";
+  const body = type.includes("json") ? await res.json() : await res.text();
+  if (!res.ok) {
+    const e = new Error((body && body.error) || `${res.status} ${res.statusText}`);
+    e.status = res.status;
+    throw e;
+  }
+  return body;
+}
+
+const post = (path, body) =>
+  api(path, { method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify(body) });
+
+// A job: its progress by server-sent events, its result when done.
+function runJob(start, box) {
+  const el = $(box);
+  const bar = el.querySelector("progress");
+  const msg = el.querySelector(".msg");
+  const cancel = el.querySelector(".cancel");
+  el.hidden = false;
+  bar.removeAttribute("value");
+  msg.textContent = "starting…";
+  return new Promise((resolve, reject) => {
+    const events = new EventSource(`/api/jobs/${start.id}/events`);
+    cancel.onclick = () => api(`/api/jobs/${start.id}`, { method: "DELETE" }).catch(() => {});
+    events.onmessage = (ev) => {
+      const s = JSON.parse(ev.data);
+      const p = s.progress;
+      if (p && p.fraction !== undefined && p.fraction !== null) bar.value = p.fraction;
+      else bar.removeAttribute("value");
+      msg.textContent = `${s.message || s.kind} · ${s.elapsed_s.toFixed(1)} s`;
+      if (s.state === "running") return;
+      events.close();
+      el.hidden = true;
+      if (s.state === "done") resolve(s);
+      else reject(new Error(s.state === "cancelled" ? "cancelled" : s.error));
+    };
+    events.onerror = () => {
+      // The stream ends after the last status; a real loss shows as a still-running job.
+      api(`/api/jobs/${start.id}`).then((s) => {
+        if (s.state === "running") return;
+        events.close();
+        el.hidden = true;
+        if (s.state === "done") resolve(s);
+        else reject(new Error(s.error || s.state));
+      }).catch(reject);
+    };
+  });
+}
+
+// ---------------------------------------------------------------- audio (A/B without a gap)
+const audio = { ctx: null, analyser: null, source: null, part: null, buffers: {}, startedAt: 0, offset: 0 };
+
+function ctx() {
+  if (!audio.ctx) {
+    audio.ctx = new AudioContext();
+    audio.analyser = audio.ctx.createAnalyser();
+    audio.analyser.fftSize = 2048;
+    audio.analyser.connect(audio.ctx.destination);
+  }
+  return audio.ctx;
+}
+
+async function decode(url) {
+  const bytes = await (await fetch(url)).arrayBuffer();
+  return await ctx().decodeAudioData(bytes);
+}
+
+function position() {
+  return audio.source ? audio.offset + (audio.ctx.currentTime - audio.startedAt) : 0;
+}
+
+function play(buffer, name, at = 0) {
+  const c = ctx();
+  c.resume();
+  stop();
+  const src = c.createBufferSource();
+  src.buffer = buffer;
+  src.connect(audio.analyser);
+  const offset = at < buffer.duration ? at : 0;
+  src.start(0, offset);
+  audio.source = src;
+  audio.part = name;
+  audio.startedAt = c.currentTime;
+  audio.offset = offset;
+  src.onended = () => {
+    if (audio.source === src) {
+      audio.source = null;
+      audio.part = null;
+      markParts();
+    }
+  };
+  markParts();
+  tick();
+}
+
+function stop() {
+  if (audio.source) {
+    const s = audio.source;
+    audio.source = null;
+    try { s.stop(); } catch (_) { /* already ended */ }
+  }
+  audio.part = null;
+  markParts();
+}
+
+function markParts() {
+  document.querySelectorAll("button.ab").forEach((b) => b.classList.toggle("on", b.dataset.part === audio.part));
+}
+
+function tick() {
+  $("clock").textContent = `${position().toFixed(2)} s`;
+  if (audio.source) requestAnimationFrame(tick);
+}
+
+// The loudest sample the analyser sees now (tests use it to hear that audio plays).
+function level() {
+  if (!audio.analyser) return 0;
+  const a = new Float32Array(audio.analyser.fftSize);
+  audio.analyser.getFloatTimeDomainData(a);
+  return a.reduce((m, v) => Math.max(m, Math.abs(v)), 0);
+}
+
+// ---------------------------------------------------------------- 1. recording
+async function openRecording(promise) {
+  say("analysing…");
+  try {
+    const v = await promise;
+    await showRecording(v);
+    say(`analysed ${v.name}: ${v.report.modes.length} modes`);
+  } catch (e) {
+    say(e.message, true);
+  }
+}
+
+async function showRecording(v) {
+  state.recording = v;
+  stop();
+  $("recording").hidden = false;
+  const r = v.report;
+  $("rec-title").textContent = `${v.name} · ${r.codec}, ${r.sample_rate} Hz · strike ${r.strike} of ${r.strikes_s.length} · ${r.modes.length} modes`;
+  $("conditioning").textContent = v.text;
+  $("spectrogram").src = `/api/recordings/${v.id}/plot.png?strike=${r.strike}`;
+  const body = $("modes").querySelector("tbody");
+  body.innerHTML = "";
+  const top = Math.max(...r.modes.map((m) => m.amplitude));
+  r.modes.forEach((m, i) => {
+    const tr = document.createElement("tr");
+    const db = 20 * Math.log10(m.amplitude / top);
+    tr.innerHTML = `<td>${i + 1}</td><td>${m.freq_hz.toFixed(1)}</td><td>${m.damping_per_s.toFixed(2)}</td><td>${db.toFixed(1)}</td>`;
+    const td = document.createElement("td");
+    const b = document.createElement("button");
+    b.className = "small";
+    b.textContent = "play";
+    b.title = "hear this mode alone (normalized)";
+    b.onclick = async () => play(await decode(`/api/recordings/${v.id}/mode/${i + 1}.wav`), `mode ${i + 1}`);
+    td.appendChild(b);
+    tr.appendChild(td);
+    body.appendChild(tr);
+  });
+  audio.buffers = {};
+  const [full, ...parts] = await Promise.all(
+    ["audio", "part/recording.wav", "part/modes.wav", "part/residual.wav"].map((p) => decode(`/api/recordings/${v.id}/${p}`)),
+  );
+  audio.buffers = { recording: parts[0], modes: parts[1], residual: parts[2] };
+  drawWave(full, r);
+  updateButtons();
+}
+
+function drawWave(buf, r) {
+  const c = $("wave");
+  c.width = c.clientWidth * devicePixelRatio;
+  const g = c.getContext("2d");
+  const w = c.width, h = c.height;
+  g.clearRect(0, 0, w, h);
+  const x = buf.getChannelData(0);
+  const per = Math.max(1, Math.floor(x.length / w));
+  g.fillStyle = "#6b7a90";
+  for (let i = 0; i < w; i++) {
+    let lo = 0, hi = 0;
+    for (let j = i * per; j < Math.min(x.length, (i + 1) * per); j++) { lo = Math.min(lo, x[j]); hi = Math.max(hi, x[j]); }
+    g.fillRect(i, h / 2 - hi * h / 2, 1, Math.max(1, (hi - lo) * h / 2));
+  }
+  const dur = buf.duration;
+  r.strikes_s.forEach((t, k) => {
+    const px = (t / dur) * w;
+    g.fillStyle = k + 1 === r.strike ? "#d6402f" : "#2f6fd6";
+    g.fillRect(px - 1, 0, 3, h);
+    g.fillText(String(k + 1), px + 4, 12);
+  });
+  c.onclick = async (ev) => {
+    const t = (ev.offsetX / c.clientWidth) * dur;
+    let best = 0;
+    r.strikes_s.forEach((s, k) => { if (Math.abs(s - t) < Math.abs(r.strikes_s[best] - t)) best = k; });
+    if (best + 1 === state.recording.report.strike) return;
+    say(`analysing strike ${best + 1}…`);
+    try {
+      const v = await post(`/api/recordings/${state.recording.id}/analyze`, { strike: best + 1 });
+      await showRecording(v);
+      say(`strike ${best + 1}: ${v.report.modes.length} modes`);
+    } catch (e) { say(e.message, true); }
+  };
+}
+
+// ---------------------------------------------------------------- 2. object
+const SHAPES = {
+  bar: ["0.1,0.03,0.005", "length, width, height (m), centred on the origin"],
+  box: ["0.1,0.08,0.06", "x, y, z (m), centred on the origin"],
+  plate: ["0.2,0.15,0.004", "length, width, thickness (m), centred on the origin"],
+  cylinder: ["0.03,0.1", "radius, height (m), centred on the origin"],
+  sphere: ["0.03", "radius (m), centred on the origin"],
+  bowl: ["0.06,0.004,0.04", "radius, wall thickness, depth (m); the rim is at z = 0"],
+};
+
+async function solveObject() {
+  const body = {
+    kind: $("kind").value,
+    sizes_m: $("sizes").value.split(",").map(Number),
+    modes: Number($("nmodes").value),
+    reference: $("reference").value,
+  };
+  $("solve").disabled = true;
+  say("solving the modes…");
+  try {
+    const start = await post("/api/objects", body);
+    const done = await runJob(start, "solve-job");
+    const r = done.result;
+    state.object = { id: r.object, report: r.report, kind: body.kind, sizes: body.sizes_m };
+    $("object").hidden = false;
+    $("obj-title").textContent = `${body.kind} ${body.sizes_m.join(" × ")} m · ${r.report.modes.length} modes from ${r.report.modes[0].freq_hz.toFixed(0)} Hz · ${r.primitive.vertices} vertices`;
+    $("obj-modes").textContent = r.text.split("\n").slice(0, 3).join(" · ");
+    const sel = $("shape-mode");
+    sel.innerHTML = '<option value="">none</option>';
+    r.report.modes.forEach((m, i) => sel.insertAdjacentHTML("beforeend", `<option value="${i + 1}">${i + 1}: ${m.freq_hz.toFixed(0)} Hz</option>`));
+    await loadSurface();
+    if (!state.hit) setHit(defaultHit());
+    say(`solved: ${r.report.modes.length} modes in ${done.elapsed_s.toFixed(1)} s`);
+  } catch (e) {
+    say(e.message, true);
+  } finally {
+    $("solve").disabled = false;
+    updateButtons();
+  }
+}
+
+function defaultHit() {
+  // The top of the surface, off-centre: the highest vertex near a third of the length.
+  const v = state.surface.vertices;
+  let best = 0, score = -Infinity;
+  for (let i = 0; i < v.length; i += 3) {
+    const s = v[i + 2] - Math.abs(v[i] - state.surface.bbox_m[1][0] * 0.4) * 0.1;
+    if (s > score) { score = s; best = i; }
+  }
+  return [v[best], v[best + 1], v[best + 2]];
+}
+
+async function loadSurface() {
+  const mode = $("shape-mode").value;
+  state.surface = await api(`/api/objects/${state.object.id}/surface${mode ? `?mode=${mode}` : ""}`);
+  drawObject();
+}
+
+const view = { yaw: -0.6, pitch: 0.5, drag: null, tris: [] };
+
+function rotate(p) {
+  const [x, y, z] = p;
+  const cy = Math.cos(view.yaw), sy = Math.sin(view.yaw), cp = Math.cos(view.pitch), sp = Math.sin(view.pitch);
+  const x1 = cy * x - sy * y, y1 = sy * x + cy * y;
+  return [x1, cp * y1 - sp * z, sp * y1 + cp * z];
+}
+
+function drawObject() {
+  const s = state.surface;
+  if (!s) return;
+  const c = $("view");
+  const g = c.getContext("2d");
+  const w = c.width, h = c.height;
+  g.clearRect(0, 0, w, h);
+  const [lo, hi] = s.bbox_m;
+  const centre = [0, 1, 2].map((k) => (lo[k] + hi[k]) / 2);
+  const size = Math.max(...[0, 1, 2].map((k) => hi[k] - lo[k])) || 1;
+  const scale = 0.8 * Math.min(w, h) / size;
+  const v = s.vertices;
+  const n = v.length / 3;
+  const screen = new Array(n);
+  for (let i = 0; i < n; i++) {
+    const r = rotate([v[3 * i] - centre[0], v[3 * i + 1] - centre[1], v[3 * i + 2] - centre[2]]);
+    screen[i] = [w / 2 + r[0] * scale, h / 2 - r[2] * scale, r[1]];
+  }
+  const t = s.triangles;
+  const tris = [];
+  for (let k = 0; k < t.length; k += 3) {
+    const a = screen[t[k]], b = screen[t[k + 1]], d = screen[t[k + 2]];
+    const cross = (b[0] - a[0]) * (d[1] - a[1]) - (b[1] - a[1]) * (d[0] - a[0]);
+    if (cross > 0) continue; // back face (screen y points down)
+    tris.push({ k, depth: (a[2] + b[2] + d[2]) / 3, a, b, d, shade: Math.min(1, 0.35 + Math.abs(cross) / (scale * scale * 1e-4 + Math.abs(cross))) });
+  }
+  tris.sort((p, q) => q.depth - p.depth);
+  for (const tr of tris) {
+    let fill;
+    if (s.displacement) {
+      const u = (s.displacement[t[tr.k]] + s.displacement[t[tr.k + 1]] + s.displacement[t[tr.k + 2]]) / 3;
+      fill = `hsl(${240 - 240 * u}, 75%, ${35 + 25 * tr.shade}%)`;
+    } else {
+      fill = `hsl(212, 18%, ${45 + 35 * tr.shade}%)`;
+    }
+    g.fillStyle = fill;
+    g.strokeStyle = fill;
+    g.beginPath();
+    g.moveTo(tr.a[0], tr.a[1]); g.lineTo(tr.b[0], tr.b[1]); g.lineTo(tr.d[0], tr.d[1]);
+    g.closePath(); g.fill(); g.stroke();
+  }
+  view.tris = tris;
+  view.screen = { centre, scale, w, h };
+  if (state.hit) {
+    const r = rotate([state.hit[0] - centre[0], state.hit[1] - centre[1], state.hit[2] - centre[2]]);
+    g.fillStyle = "#d6402f";
+    g.beginPath();
+    g.arc(w / 2 + r[0] * scale, h / 2 - r[2] * scale, 5, 0, 2 * Math.PI);
+    g.fill();
+  }
+}
+
+function pick(px, py) {
+  // The nearest front triangle under the cursor, and the point on it.
+  let found = null;
+  for (let i = view.tris.length - 1; i >= 0; i--) {
+    const { a, b, d, k } = view.tris[i];
+    const det = (b[1] - d[1]) * (a[0] - d[0]) + (d[0] - b[0]) * (a[1] - d[1]);
+    const l1 = ((b[1] - d[1]) * (px - d[0]) + (d[0] - b[0]) * (py - d[1])) / det;
+    const l2 = ((d[1] - a[1]) * (px - d[0]) + (a[0] - d[0]) * (py - d[1])) / det;
+    const l3 = 1 - l1 - l2;
+    if (l1 >= 0 && l2 >= 0 && l3 >= 0) { found = { k, l: [l1, l2, l3] }; break; }
+  }
+  if (!found) return null;
+  const s = state.surface;
+  const p = [0, 0, 0];
+  for (let j = 0; j < 3; j++) {
+    const vi = s.triangles[found.k + j];
+    for (let c = 0; c < 3; c++) p[c] += found.l[j] * s.vertices[3 * vi + c];
+  }
+  return p;
+}
+
+function setHit(p) {
+  state.hit = p;
+  $("hit").value = p.map((x) => x.toFixed(4)).join(",");
+  drawObject();
+  updateButtons();
+}
+
+// ---------------------------------------------------------------- 3. material
+async function estimate() {
+  $("estimate").disabled = true;
+  say("estimating the material…");
+  try {
+    const start = await post("/api/estimate", { recording: state.recording.id, object: state.object.id, hit_m: state.hit });
+    const done = await runJob(start, "estimate-job");
+    const r = done.result;
+    state.estimate = r;
+    $("estimated").hidden = false;
+    $("estimate-report").textContent = [r.text, ...r.notes.map((n) => `note: ${n}`)].join("\n");
+    $("estimate-plot").src = `/api/estimates/${r.estimate}/plot.png`;
+    $("save-name").value = r.material.name;
+    $("material-download").href = `/api/estimates/${r.estimate}/material.json`;
+    say(`estimated in ${done.elapsed_s.toFixed(1)} s`);
+  } catch (e) {
+    say(e.message, true);
+  } finally {
+    updateButtons();
+  }
+}
+
+async function save() {
+  const name = $("save-name").value.trim();
+  try {
+    await post("/api/materials", { estimate: state.estimate.estimate, name, replace: $("replace").checked });
+    say(`saved ${name} to the library`);
+    await loadLibrary(name);
+  } catch (e) {
+    say(e.status === 409 ? `${e.message}: tick “replace” to overwrite it, or choose another name` : e.message, true);
+  }
+}
+
+// ---------------------------------------------------------------- 4. audition
+async function render() {
+  $("render").disabled = true;
+  const material = $("audition-material").value;
+  say(`rendering ${material}…`);
+  try {
+    const start = await post("/api/render", {
+      material, object: state.object.id, hit_m: state.hit,
+      speed_m_s: Number($("speed").value), duration_s: Number($("duration").value),
+    });
+    const done = await runJob(start, "render-job");
+    const r = done.result;
+    const item = { id: r.render, material, object: `${state.object.kind} ${state.object.sizes.join("×")}`, hit: state.hit.slice(), info: r.info };
+    state.renders.push(item);
+    addRenderRow(item);
+    play(await decode(`/api/renders/${r.render}.wav`), `render ${r.render}`);
+    say(`rendered ${material}${r.notes.length ? ` (${r.notes.join("; ")})` : ""}`);
+  } catch (e) {
+    say(e.message, true);
+  } finally {
+    updateButtons();
+  }
+}
+
+function addRenderRow(item) {
+  const tr = document.createElement("tr");
+  tr.dataset.render = item.id;
+  const peak = 20 * Math.log10(item.info.peak);
+  tr.innerHTML = `<td>${state.renders.length}</td><td>${item.material}</td><td>${item.object}</td><td>${item.hit.map((x) => x.toFixed(3)).join(", ")}</td><td>${peak.toFixed(1)} dBFS</td><td class="distance">–</td>`;
+  const td = document.createElement("td");
+  const b = document.createElement("button");
+  b.className = "small";
+  b.textContent = "play";
+  b.onclick = async () => play(await decode(`/api/renders/${item.id}.wav`), `render ${item.id}`);
+  const cmp = document.createElement("button");
+  cmp.className = "small";
+  cmp.textContent = "compare";
+  cmp.title = "log-mel distance to the recording (resound compare)";
+  cmp.onclick = async () => {
+    try {
+      const d = await api(`/api/compare?recording=${state.recording.id}&render=${item.id}`);
+      tr.querySelector(".distance").textContent = d.distance.toFixed(3);
+    } catch (e) { say(e.message, true); }
+  };
+  const a = document.createElement("a");
+  a.href = `/api/renders/${item.id}.wav`;
+  a.textContent = "WAV";
+  a.download = `render-${item.id}.wav`;
+  td.append(b, " ", cmp, " ", a);
+  tr.appendChild(td);
+  $("renders").querySelector("tbody").appendChild(tr);
+}
+
+// ---------------------------------------------------------------- 5. library
+async function loadLibrary(select) {
+  const l = await api("/api/materials");
+  const body = $("library").querySelector("tbody");
+  body.innerHTML = "";
+  const sel = $("audition-material");
+  const keep = select || sel.value;
+  sel.innerHTML = "";
+  for (const [m, origin] of l.materials) {
+    const tr = document.createElement("tr");
+    tr.innerHTML = `<td>${m.name}</td><td>${m.alpha.toExponential(3)}</td><td>${m.beta.toExponential(3)}</td><td>${m.gamma.toExponential(3)}</td><td>${m.sigma.toExponential(3)}</td><td>${origin}</td>`;
+    const td = document.createElement("td");
+    const a = document.createElement("a");
+    a.href = `/api/materials/${encodeURIComponent(m.name)}`;
+    a.textContent = "JSON";
+    a.download = `${m.name}.json`;
+    td.appendChild(a);
+    if (origin !== "builtin") {
+      const del = document.createElement("button");
+      del.className = "small";
+      del.textContent = "delete";
+      del.onclick = async () => {
+        if (!confirm(`Delete ${m.name} from the library?`)) return;
+        try {
+          await api(`/api/materials/${encodeURIComponent(m.name)}`, { method: "DELETE" });
+          say(`deleted ${m.name}`);
+          await loadLibrary();
+        } catch (e) { say(e.message, true); }
+      };
+      td.append(" ", del);
+    }
+    tr.appendChild(td);
+    body.appendChild(tr);
+    sel.insertAdjacentHTML("beforeend", `<option>${m.name}</option>`);
+  }
+  if ([...sel.options].some((o) => o.value === keep)) sel.value = keep;
+}
+
+function updateButtons() {
+  $("estimate").disabled = !(state.recording && state.object && state.hit);
+  $("render").disabled = !(state.object && state.hit);
+}
+
+// ---------------------------------------------------------------- wiring
+async function start() {
+  const info = await api("/api/info");
+  $("version").textContent = `v${info.version}`;
+  for (const s of info.samples) $("sample").insertAdjacentHTML("beforeend", `<option>${s}</option>`);
+  for (const k of info.primitives) $("kind").insertAdjacentHTML("beforeend", `<option>${k}</option>`);
+  $("kind").value = "bar";
+  $("shape-hint").textContent = SHAPES.bar[1];
+  $("kind").onchange = () => {
+    const [sizes, hint] = SHAPES[$("kind").value] || ["", ""];
+    $("sizes").value = sizes;
+    $("shape-hint").textContent = hint;
+  };
+  $("open-sample").onclick = () => openRecording(post(`/api/samples/${encodeURIComponent($("sample").value)}`, {}));
+  const upload = (file) => {
+    if (file.size > info.max_upload_bytes) {
+      say(`${file.name} is ${(file.size / 1e6).toFixed(1)} MB; the studio takes at most ${(info.max_upload_bytes / 1e6).toFixed(0)} MB`, true);
+      return;
+    }
+    openRecording(api(`/api/recordings?name=${encodeURIComponent(file.name)}`, { method: "POST", body: file }));
+  };
+  $("file").onchange = (e) => e.target.files[0] && upload(e.target.files[0]);
+  const drop = $("drop");
+  drop.ondragover = (e) => { e.preventDefault(); drop.classList.add("over"); };
+  drop.ondragleave = () => drop.classList.remove("over");
+  drop.ondrop = (e) => { e.preventDefault(); drop.classList.remove("over"); e.dataTransfer.files[0] && upload(e.dataTransfer.files[0]); };
+  document.querySelectorAll("button.ab").forEach((b) => {
+    b.onclick = () => {
+      const buf = audio.buffers[b.dataset.part];
+      if (buf) play(buf, b.dataset.part, audio.source ? position() : 0);
+    };
+  });
+  $("stop").onclick = stop;
+  $("solve").onclick = solveObject;
+  $("shape-mode").onchange = loadSurface;
+  const v = $("view");
+  v.onmousedown = (e) => { view.drag = { x: e.offsetX, y: e.offsetY, yaw: view.yaw, pitch: view.pitch, moved: false }; };
+  v.onmousemove = (e) => {
+    if (!view.drag) return;
+    const dx = e.offsetX - view.drag.x, dy = e.offsetY - view.drag.y;
+    if (Math.abs(dx) + Math.abs(dy) > 3) view.drag.moved = true;
+    view.yaw = view.drag.yaw + dx * 0.01;
+    view.pitch = Math.max(-1.5, Math.min(1.5, view.drag.pitch + dy * 0.01));
+    drawObject();
+  };
+  v.onmouseup = (e) => {
+    const moved = view.drag && view.drag.moved;
+    view.drag = null;
+    if (moved) return;
+    const sx = v.width / v.clientWidth;
+    const p = pick(e.offsetX * sx, e.offsetY * sx);
+    if (p) setHit(p);
+  };
+  $("hit").onchange = () => {
+    const p = $("hit").value.split(",").map(Number);
+    if (p.length === 3 && p.every(Number.isFinite)) setHit(p);
+    else say("the hit point is x,y,z in metres", true);
+  };
+  $("estimate").onclick = estimate;
+  $("save").onclick = save;
+  $("render").onclick = render;
+  await loadLibrary();
+  say("ready");
+}
+
+window.studio = { state, level, position, playing: () => audio.part, pick, view };
+start().catch((e) => say(e.message, true));
