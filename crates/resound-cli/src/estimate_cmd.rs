@@ -1,12 +1,12 @@
 //! `resound estimate` and `resound materials`: material estimation and the material library.
 
 use crate::util::{parse_vec3, print_json, warn_all, Bar};
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use clap::{Args, Subcommand};
 use resound::io::library::{read_material, write_material};
 use resound::material::{
-    check_name_free, estimate_files, library_material as get, list_library, open_library,
-    read_library, store_material, EstimateFiles, EstimateMaterialParams,
+    check_name_free, estimate_files, library_material as get, list_library, read_library,
+    remove_material, store_material, EstimateFiles, EstimateMaterialParams,
 };
 use resound::object::ObjectParams;
 use resound::recording::TakeSelection;
@@ -141,101 +141,70 @@ pub fn run(a: EstimateArgs) -> Result<()> {
 }
 
 /// `resound materials …`.
+#[derive(Args, Debug)]
+pub struct MaterialsArgs {
+    #[command(subcommand)]
+    pub cmd: MaterialsCmd,
+    /// Material library (default: $RESOUND_LIBRARY or ~/.local/share/resound/materials.sqlite).
+    #[arg(long, global = true)]
+    pub library: Option<PathBuf>,
+}
+
+/// The `materials` subcommands.
 #[derive(Subcommand, Debug)]
 pub enum MaterialsCmd {
     /// List the library's materials.
-    List(LibArg),
+    List,
     /// Print one material as JSON.
-    Show(NameArg),
+    Show {
+        /// Material name.
+        name: String,
+    },
     /// Add (or replace) a material from a material file.
-    Import(FileArg),
+    Import {
+        /// Material file (JSON).
+        file: PathBuf,
+        /// Replace a library entry of the same name.
+        #[arg(long)]
+        force: bool,
+    },
     /// Write one material to a material file.
-    Export(ExportArg),
+    Export {
+        /// Material name.
+        name: String,
+        /// Output material file (JSON).
+        file: PathBuf,
+    },
     /// Remove a material.
-    Remove(NameArg),
-}
-
-/// Library location.
-#[derive(Args, Debug)]
-pub struct LibArg {
-    /// Material library path.
-    #[arg(long)]
-    pub library: Option<PathBuf>,
-}
-
-/// A material name.
-#[derive(Args, Debug)]
-pub struct NameArg {
-    /// Material name.
-    pub name: String,
-    /// Material library path.
-    #[arg(long)]
-    pub library: Option<PathBuf>,
-}
-
-/// A material file.
-#[derive(Args, Debug)]
-pub struct FileArg {
-    /// Material file (JSON).
-    pub file: PathBuf,
-    /// Material library path.
-    #[arg(long)]
-    pub library: Option<PathBuf>,
-    /// Replace a library entry of the same name.
-    #[arg(long)]
-    pub force: bool,
-}
-
-/// Export arguments.
-#[derive(Args, Debug)]
-pub struct ExportArg {
-    /// Material name.
-    pub name: String,
-    /// Output material file (JSON).
-    pub file: PathBuf,
-    /// Material library path.
-    #[arg(long)]
-    pub library: Option<PathBuf>,
-}
-
-/// The library, which must exist already (read-only commands never create one).
-fn existing(path: &Option<PathBuf>) -> Result<resound::io::library::Library> {
-    read_library(path.as_deref())?
-        .context("no material library yet (estimate --name or materials import creates one)")
+    Remove {
+        /// Material name.
+        name: String,
+    },
 }
 
 /// Runs `materials`.
-pub fn run_materials(c: MaterialsCmd) -> Result<()> {
-    match c {
-        MaterialsCmd::List(a) => {
-            let listing = list_library(a.library.as_deref())?;
+pub fn run_materials(a: MaterialsArgs) -> Result<()> {
+    let lib = a.library.as_deref();
+    match a.cmd {
+        MaterialsCmd::List => {
+            let listing = list_library(lib)?;
             crate::util::notes(listing.note.as_slice());
             print!("{listing}");
         }
-        MaterialsCmd::Show(a) => {
-            let lib = read_library(a.library.as_deref())?;
-            println!(
-                "{}",
-                serde_json::to_string_pretty(&get(lib.as_ref(), &a.name)?)?
-            );
+        MaterialsCmd::Show { name } => {
+            let m = get(read_library(lib)?.as_ref(), &name)?;
+            println!("{}", serde_json::to_string_pretty(&m)?);
         }
-        MaterialsCmd::Import(a) => {
-            let m = read_material(&a.file)?;
-            store_material(a.library.as_deref(), &m, a.force)?;
+        MaterialsCmd::Import { file, force } => {
+            let m = read_material(&file)?;
+            store_material(lib, &m, force)?;
             eprintln!("imported {:?}", m.name);
         }
-        MaterialsCmd::Export(a) => {
-            crate::util::check_paths(std::iter::empty::<&Path>(), [&a.file])?;
-            let lib = read_library(a.library.as_deref())?;
-            write_material(&a.file, &get(lib.as_ref(), &a.name)?)?;
+        MaterialsCmd::Export { name, file } => {
+            crate::util::check_paths(std::iter::empty::<&Path>(), [&file])?;
+            write_material(&file, &get(read_library(lib)?.as_ref(), &name)?)?;
         }
-        MaterialsCmd::Remove(a) => {
-            existing(&a.library)?;
-            let mut lib = open_library(a.library.as_deref())?;
-            if !lib.remove(&a.name)? {
-                bail!("no material {:?} in the library", a.name);
-            }
-        }
+        MaterialsCmd::Remove { name } => remove_material(lib, &name)?,
     }
     Ok(())
 }

@@ -51,8 +51,7 @@ enum Command {
     /// Estimate a material (Rayleigh α, β, γ = E/ρ, σ) from a recorded strike, the object's mesh and the hit point.
     Estimate(estimate_cmd::EstimateArgs),
     /// List, show, import, export and remove materials in the material library (SQLite).
-    #[command(subcommand)]
-    Materials(estimate_cmd::MaterialsCmd),
+    Materials(estimate_cmd::MaterialsArgs),
     /// Render one strike of an object of a material (modes + residual), or analysed modes, to WAV.
     Synth(synth_cmd::SynthArgs),
     /// Render a physics scene (TOML: bodies, materials, listener) to WAV and an event log.

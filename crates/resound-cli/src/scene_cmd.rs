@@ -3,8 +3,7 @@
 use anyhow::Result;
 use clap::Args;
 use resound::io::{write_wav_channels, WavFormat};
-use resound::scene::{render_scene, SceneRenderParams, SceneSummary};
-use serde::Serialize;
+use resound::scene::{render_scene, SceneRenderParams};
 use std::path::PathBuf;
 
 /// Arguments of `scene`.
@@ -55,13 +54,6 @@ pub struct SceneArgs {
     pub keep_level: bool,
 }
 
-#[derive(Serialize)]
-struct Output<'a> {
-    output: String,
-    #[serde(flatten)]
-    summary: &'a SceneSummary,
-}
-
 /// Runs `scene`.
 pub fn run(a: SceneArgs) -> Result<()> {
     crate::util::check_paths([&a.scene], a.output.iter().chain(&a.events))?;
@@ -107,10 +99,7 @@ pub fn run(a: SceneArgs) -> Result<()> {
     }
     let s = &r.summary;
     if a.json {
-        return crate::util::print_json(&Output {
-            output: output.display().to_string(),
-            summary: s,
-        });
+        return crate::util::print_written(output, s);
     }
     eprintln!("wrote {} ({s})", output.display());
     Ok(())

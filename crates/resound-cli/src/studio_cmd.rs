@@ -27,13 +27,6 @@ pub struct StudioArgs {
 
 /// Runs `studio` until interrupted.
 pub fn run(a: StudioArgs) -> Result<()> {
-    if !a.host.is_loopback() {
-        eprintln!(
-            "warning: listening on {}: anyone who can reach this machine can use the studio and \
-             change the material library",
-            a.host
-        );
-    }
     let params = resound_studio::StudioParams {
         host: a.host,
         port: a.port,
@@ -41,29 +34,17 @@ pub fn run(a: StudioArgs) -> Result<()> {
         max_upload_bytes: (a.max_upload_mb << 20) as usize,
         work_dir: None,
     };
+    if let Some(w) = params.exposure_warning() {
+        eprintln!("warning: {w}");
+    }
     resound_studio::serve(&params, |addr| {
         let url = format!("http://{addr}/");
         println!("Resound Studio at {url} (Ctrl-C stops it)");
         if a.open {
-            open_browser(&url);
+            if let Err(e) = resound_studio::open_in_browser(&url) {
+                eprintln!("note: could not open a browser ({e}); open {url} yourself");
+            }
         }
     })?;
     Ok(())
-}
-
-/// Asks the desktop to open `url`; says so when it cannot.
-fn open_browser(url: &str) {
-    let opener = if cfg!(target_os = "macos") {
-        "open"
-    } else {
-        "xdg-open"
-    };
-    if let Err(e) = std::process::Command::new(opener)
-        .arg(url)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-    {
-        eprintln!("note: could not open a browser ({opener}: {e}); open {url} yourself");
-    }
 }

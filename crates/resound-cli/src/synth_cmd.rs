@@ -5,9 +5,8 @@ use anyhow::Result;
 use clap::Args;
 use resound::core::Material;
 use resound::io::{write_wav, WavFormat};
-use resound::strike::{render_strike_from, StrikeInfo, StrikeParams};
+use resound::strike::{render_strike_from, StrikeParams};
 use resound::synth::excitation::ContactModel;
-use serde::Serialize;
 use std::path::PathBuf;
 
 /// Arguments of `synth`.
@@ -71,15 +70,6 @@ pub struct SynthArgs {
     pub play: bool,
 }
 
-/// What sounds: `--modes`, `--stats` (with `--seed`), or `--material` on `--mesh` at `--hit`.
-#[derive(Serialize)]
-struct Output<'a> {
-    /// The file written.
-    output: String,
-    #[serde(flatten)]
-    strike: &'a StrikeInfo,
-}
-
 /// Runs `synth`.
 pub fn run(a: SynthArgs) -> Result<()> {
     crate::util::check_paths(a.object.inputs(), [&a.output])?;
@@ -116,10 +106,7 @@ pub fn run(a: SynthArgs) -> Result<()> {
         )?;
     }
     if a.json {
-        return crate::util::print_json(&Output {
-            output: a.output.display().to_string(),
-            strike: &strike.info,
-        });
+        return crate::util::print_written(&a.output, &strike.info);
     }
     eprintln!(
         "wrote {} ({:.2} s, {} Hz)",

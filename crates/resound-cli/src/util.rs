@@ -134,6 +134,18 @@ pub fn named<T: serde::de::DeserializeOwned>(s: &str) -> std::result::Result<T, 
     serde_json::from_value(serde_json::Value::String(s.into())).map_err(|e| e.to_string())
 }
 
+/// Prints a step's report as JSON with the file it wrote (`"output"`) beside its fields.
+pub fn print_written<T: Serialize>(output: &Path, report: &T) -> Result<()> {
+    #[derive(Serialize)]
+    struct Written<'a, T> {
+        output: String,
+        #[serde(flatten)]
+        report: &'a T,
+    }
+    let output = output.display().to_string();
+    print_json(&Written { output, report })
+}
+
 /// Prints notes on stderr.
 pub fn notes<S: std::fmt::Display>(notes: &[S]) {
     for n in notes {

@@ -51,6 +51,7 @@ impl From<resound::Error> for ApiError {
     fn from(e: resound::Error) -> Self {
         let status = match e.root() {
             resound::Error::Exists(_) => StatusCode::CONFLICT,
+            resound::Error::Missing(_) => StatusCode::NOT_FOUND,
             _ => StatusCode::UNPROCESSABLE_ENTITY,
         };
         Self::new(status, error_text(&e))
@@ -788,19 +789,7 @@ async fn remove_material(
     let name = material_name(&name)?.to_string();
     let lib = s.library.clone();
     blocking(move || {
-        if resound::material::read_library(lib.as_deref())?.is_none() {
-            return Err(ApiError::new(
-                StatusCode::NOT_FOUND,
-                "no material library yet",
-            ));
-        }
-        let mut l = resound::material::open_library(lib.as_deref())?;
-        if !l.remove(&name).map_err(resound::Error::from)? {
-            return Err(ApiError::new(
-                StatusCode::NOT_FOUND,
-                format!("no material {name:?} in the library (built-ins cannot be removed)"),
-            ));
-        }
+        resound::material::remove_material(lib.as_deref(), &name)?;
         Ok(Json(serde_json::json!({ "removed": name })))
     })
     .await

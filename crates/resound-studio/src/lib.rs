@@ -54,6 +54,37 @@ impl Default for StudioParams {
     }
 }
 
+impl StudioParams {
+    /// What to tell the user when the address is reachable from the network.
+    pub fn exposure_warning(&self) -> Option<String> {
+        (!self.host.is_loopback()).then(|| {
+            format!(
+                "listening on {}: anyone who can reach this machine can use the studio and \
+                 change the material library",
+                self.host
+            )
+        })
+    }
+}
+
+/// Asks the desktop to open `url` (`xdg-open`, `open` on macOS).
+///
+/// # Errors
+/// The opener cannot be started.
+pub fn open_in_browser(url: &str) -> std::io::Result<()> {
+    let opener = if cfg!(target_os = "macos") {
+        "open"
+    } else {
+        "xdg-open"
+    };
+    std::process::Command::new(opener)
+        .arg(url)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .map(|_| ())
+}
+
 /// Why the studio could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum StudioError {

@@ -58,6 +58,9 @@ pub enum Error {
     /// asked for). Front ends add how to ask (`--force`, `replace=True`).
     #[error("the library already has a material named {0:?}")]
     Exists(String),
+    /// A named thing that is not there (a library entry to remove, a mode of a model).
+    #[error("{0}")]
+    Missing(String),
     /// A fitted result that is not credible (a value at its bound or outside physical
     /// ranges): not returned unless asked for. Front ends add how to ask
     /// (`--allow-implausible`, `allow_implausible=True`).

@@ -123,6 +123,25 @@ impl Origin {
     }
 }
 
+/// Removes the entry `name` from the library at `path` (or the default one). Built-ins stay
+/// reachable by name; only a library's own copy can go.
+///
+/// # Errors
+/// [`Error::Missing`] when there is no library yet or no such entry; an unreadable library.
+pub fn remove_material(path: Option<&Path>, name: &str) -> Result<()> {
+    if read_library(path)?.is_none() {
+        return Err(Error::Missing(
+            "no material library yet (estimate --name or materials import creates one)".into(),
+        ));
+    }
+    if !open_library(path)?.remove(name)? {
+        return Err(Error::Missing(format!(
+            "no material {name:?} in the library (built-ins cannot be removed)"
+        )));
+    }
+    Ok(())
+}
+
 /// One line of a material listing (`materials list`): name, the four constants and the origin.
 pub fn listing_line(m: &SoundMaterial, origin: Origin) -> String {
     let line = format!(
