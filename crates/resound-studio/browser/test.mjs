@@ -99,6 +99,8 @@ try {
   assert.ok(after[0] >= before - 0.01, `A/B restarted: ${before} → ${after[0]}`);
   await page.click("#stop");
   await shot("1-recording");
+  await page.evaluate(() => window.scrollTo(0, 0));
+  await page.screenshot({ path: join(shots, "0-first-screen.png") });
 
   // 3. The object: the demo's bar, solved with a progress bar; a click on it picks the hit.
   await page.selectOption("#kind", "bar");

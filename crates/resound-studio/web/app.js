@@ -154,7 +154,9 @@ async function showRecording(v) {
   $("recording").hidden = false;
   const r = v.report;
   $("rec-title").textContent = `${v.name} · ${r.codec}, ${r.sample_rate} Hz · strike ${r.strike} of ${r.strikes_s.length} · ${r.modes.length} modes`;
-  $("conditioning").textContent = v.text;
+  // The conditioning and onset lines; the whole text (with its mode table) below, folded.
+  $("conditioning").textContent = v.text.split("\n").filter((l) => !/^\s*(#|\d+\s)/.test(l)).join("\n").trim();
+  $("analysis-text").textContent = v.text;
   $("spectrogram").src = `/api/recordings/${v.id}/plot.png?strike=${r.strike}`;
   const body = $("modes").querySelector("tbody");
   body.innerHTML = "";

@@ -20,6 +20,7 @@ const ORDER: &[&str] = &[
     "resound",
     "resound-bench",
     "resound-bevy",
+    "resound-studio",
     "resound-cli",
     "resound-py",
 ];
