@@ -160,6 +160,8 @@ try {
   assert.ok(level > 1e-4, `the render was not heard (peak ${level})`);
   await page.click("#renders button:has-text('compare')");
   await page.waitForFunction(() => document.querySelector("#renders .distance").textContent !== "–");
+  // Both spectrograms side by side.
+  await page.waitForFunction(() => ["cmp-recording", "cmp-render"].every((id) => document.getElementById(id).naturalWidth > 0));
   await shot("4-audition");
 
   // 6. The WAV the page plays is the one the CLI writes for the same inputs.
@@ -173,6 +175,13 @@ try {
     "--hit", hit.map(String).join(","), "--velocity", "1", "--duration", "2", "-o", cli], { stdio: "inherit" });
   assert.ok(served.equals(readFileSync(cli)), "the studio's WAV differs from resound synth's");
   step("the served WAV equals resound synth's byte for byte");
+
+  // 7. Rename it in the library (the page asks for the new name).
+  page.once("dialog", (d) => d.accept("studio-ramp-2"));
+  await page.locator("#library tr", { hasText: "studio-ramp" }).locator("button:has-text('rename')").click();
+  await waitStatus(/^renamed studio-ramp to studio-ramp-2$/);
+  assert.equal(await page.locator("#library td", { hasText: /^studio-ramp$/ }).count(), 0);
+  assert.equal(await page.locator("#library td", { hasText: /^studio-ramp-2$/ }).count(), 1);
 
   assert.deepEqual(problems, [], problems.join("\n"));
   step(`passed (page interactive in ${ready} ms)`);

@@ -106,13 +106,17 @@ pub(crate) struct RecordingEntry {
 /// A solved object.
 pub(crate) struct ObjectEntry {
     model_path: PathBuf,
-    mesh_path: PathBuf,
 }
 
 /// An estimated material, not yet saved.
 pub(crate) struct EstimateEntry {
     material: SoundMaterial,
     plot: Option<PathBuf>,
+}
+
+/// An uploaded mesh file.
+pub(crate) struct MeshEntry {
+    path: PathBuf,
 }
 
 /// A rendered strike.
@@ -136,6 +140,10 @@ pub(crate) fn routes(state: Arc<AppState>) -> Router {
         .route("/api/recordings/{id}/plot.png", get(recording_plot))
         .route("/api/recordings/{id}/part/{part}", get(recording_part))
         .route("/api/recordings/{id}/mode/{k}", get(recording_mode))
+        .route(
+            "/api/meshes",
+            post(upload_mesh).layer(DefaultBodyLimit::max(limit)),
+        )
         .route("/api/objects", post(solve))
         .route("/api/objects/{id}/surface", get(surface))
         .route("/api/objects/{id}/model.rmodal", get(object_model))
@@ -144,10 +152,16 @@ pub(crate) fn routes(state: Arc<AppState>) -> Router {
         .route("/api/estimates/{id}/plot.png", get(estimate_plot))
         .route("/api/render", post(render))
         .route("/api/renders/{id}", get(render_wav))
+        .route("/api/renders/{id}/plot.png", get(render_plot))
         .route("/api/compare", get(compare))
         .route("/api/jobs/{id}", get(job).delete(cancel_job))
         .route("/api/jobs/{id}/events", get(job_events))
         .route("/api/materials", get(materials).post(save_material))
+        .route(
+            "/api/materials/import",
+            post(import_material).layer(DefaultBodyLimit::max(limit)),
+        )
+        .route("/api/materials/{name}/rename", post(rename_material))
         .route(
             "/api/materials/{name}",
             delete(remove_material).get(material_json),
@@ -479,10 +493,16 @@ async fn recording_mode(
 /// An object: a primitive with its sizes, solved with a reference material.
 #[derive(Deserialize)]
 struct ObjectBody {
-    /// Primitive kind (`bar`, `plate`, `box`, `cylinder`, `sphere`, `bowl`).
+    /// Primitive kind (`bar`, `plate`, `box`, `cylinder`, `sphere`, `bowl`), or `mesh`.
     kind: String,
-    /// Its sizes, m.
+    /// Its sizes, m (primitives).
+    #[serde(default)]
     sizes_m: Vec<f64>,
+    /// An uploaded mesh (`kind` = `mesh`).
+    mesh: Option<u64>,
+    /// Scale of the uploaded mesh's coordinates (0.001 for millimetres).
+    #[serde(default = "one")]
+    scale: f64,
     /// Segments around round shapes.
     #[serde(default = "default_segments")]
     segments: usize,
@@ -510,7 +530,7 @@ const MAX_STUDIO_MODES: usize = 400;
 #[derive(Serialize)]
 struct SolvedObject {
     object: u64,
-    primitive: PrimitiveInfo,
+    primitive: Option<PrimitiveInfo>,
     report: ModalReport,
     /// The report as `resound modal` prints it.
     text: String,
@@ -521,20 +541,30 @@ async fn solve(
     State(s): State<Arc<AppState>>,
     Json(b): Json<ObjectBody>,
 ) -> ApiResult<Json<JobStatus>> {
-    let kind = PrimitiveKind::from_name(&b.kind)
-        .ok_or_else(|| ApiError::bad(format!("no primitive {:?}", b.kind)))?;
+    let source = match (b.kind.as_str(), b.mesh) {
+        ("mesh", Some(id)) => Err(get_entry(&s.meshes, id, "mesh")?.path.clone()),
+        ("mesh", None) => return Err(ApiError::bad("kind mesh needs an uploaded mesh")),
+        (k, _) => Ok(PrimitiveKind::from_name(k)
+            .ok_or_else(|| ApiError::bad(format!("no primitive {k:?}")))?),
+    };
     if b.modes == 0 || b.modes > MAX_STUDIO_MODES {
         return Err(ApiError::bad(format!("modes must be 1–{MAX_STUDIO_MODES}")));
     }
     let reference = Material::parse(&b.reference).map_err(|e| ApiError::bad(e.to_string()))?;
     Ok(Json(jobs::spawn(&s, "solve", move |s, progress| {
         let id = s.next_id();
-        let mesh = s.file(&format!("object-{id}.obj"));
-        let primitive =
-            write_primitive(kind, &b.sizes_m, b.segments, &mesh).map_err(|e| error_text(&e))?;
+        let (mesh, scale, primitive) = match source {
+            Ok(kind) => {
+                let mesh = s.file(&format!("object-{id}.obj"));
+                let p = write_primitive(kind, &b.sizes_m, b.segments, &mesh)
+                    .map_err(|e| error_text(&e))?;
+                (mesh, 1.0, Some(p))
+            }
+            Err(uploaded) => (uploaded, b.scale, None),
+        };
         let job = SolveJob {
             mesh: mesh.clone(),
-            scale: 1.0,
+            scale,
             material: reference,
             modal: resound::modal::ModalParams {
                 n_modes: Some(b.modes),
@@ -548,13 +578,7 @@ async fn solve(
         let model_path = s.file(&format!("object-{id}.rmodal"));
         resound::io::model_file::save(&model_path, &solved.model).map_err(|e| e.to_string())?;
         if let Ok(mut m) = s.objects.lock() {
-            m.insert(
-                id,
-                Arc::new(ObjectEntry {
-                    model_path,
-                    mesh_path: mesh,
-                }),
-            );
+            m.insert(id, Arc::new(ObjectEntry { model_path }));
         }
         serde_json::to_value(SolvedObject {
             object: id,
@@ -589,7 +613,6 @@ async fn surface(
 
 async fn object_model(State(s): State<Arc<AppState>>, Path(id): Path<u64>) -> ApiResult<Response> {
     let e = get_entry(&s.objects, id, "object")?;
-    let _ = &e.mesh_path;
     file_response(
         &e.model_path,
         "application/octet-stream",
@@ -804,6 +827,9 @@ struct RenderBody {
     speed_m_s: f64,
     #[serde(default = "two")]
     duration_s: f64,
+    /// Where the microphone is (model coordinates, m): each mode weighted by what it radiates
+    /// there (`resound synth --mic`).
+    mic_m: Option<[f64; 3]>,
 }
 
 fn one() -> f64 {
@@ -839,6 +865,7 @@ async fn render(
         let params = StrikeParams {
             speed_m_s: b.speed_m_s,
             duration_s: b.duration_s,
+            mic_m: b.mic_m,
             ..StrikeParams::default()
         };
         let (mut strike, mut notes) =
@@ -940,4 +967,150 @@ async fn job_events(
             Some((Ok(event), (rx, false, status.is_finished())))
         });
     Ok(Sse::new(stream).keep_alive(KeepAlive::default()))
+}
+
+#[derive(Deserialize)]
+struct MeshQuery {
+    name: String,
+    /// Scale of its coordinates (0.001 for millimetres).
+    #[serde(default = "one")]
+    scale: f64,
+}
+
+#[derive(Serialize)]
+struct MeshView {
+    mesh: u64,
+    name: String,
+    report: resound::mesh::MeshReport,
+    /// The check as `resound mesh check` prints it.
+    text: String,
+}
+
+/// `POST /api/meshes?name=cup.obj&scale=0.001` with the file as the body: stored under a
+/// generated name and checked (`resound mesh check`).
+async fn upload_mesh(
+    State(s): State<Arc<AppState>>,
+    Query(q): Query<MeshQuery>,
+    body: Bytes,
+) -> ApiResult<Json<MeshView>> {
+    let name = display_name(&q.name);
+    let ext = name
+        .rsplit_once('.')
+        .map(|p| p.1.to_ascii_lowercase())
+        .filter(|e| ["obj", "stl", "ply"].contains(&e.as_str()))
+        .ok_or_else(|| {
+            ApiError::bad(format!("{name}: not a mesh we read here (OBJ, STL or PLY)"))
+        })?;
+    if body.is_empty() {
+        return Err(ApiError::bad(format!("{name} is empty")));
+    }
+    let id = s.next_id();
+    let path = s.file(&format!("mesh-{id}.{ext}"));
+    std::fs::write(&path, &body).map_err(|e| {
+        ApiError::new(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("cannot store the upload: {e}"),
+        )
+    })?;
+    let p = path.clone();
+    let scale = q.scale;
+    let checked = blocking(move || Ok(resound::mesh::check_mesh(&p, scale, 0)?)).await;
+    let report = match checked {
+        Ok(r) => r,
+        Err(e) => {
+            let _ = std::fs::remove_file(&path);
+            return Err(e);
+        }
+    };
+    if let Ok(mut m) = s.meshes.lock() {
+        m.insert(id, Arc::new(MeshEntry { path }));
+    }
+    Ok(Json(MeshView {
+        mesh: id,
+        name,
+        text: report.to_string(),
+        report,
+    }))
+}
+
+/// The render's analysis picture (its spectrogram with the modes found), to set beside the
+/// recording's.
+async fn render_plot(State(s): State<Arc<AppState>>, Path(id): Path<u64>) -> ApiResult<Response> {
+    let e = get_entry(&s.renders, id, "render")?;
+    let out = s.file(&format!("render-{id}-{}.png", s.next_id()));
+    let (wav, o) = (e.wav.clone(), out.clone());
+    blocking(move || {
+        // The analysis without its "no modes is an error" rule: a render that is mostly
+        // residual still gets its spectrogram (with no modes marked).
+        let rec = resound::recording::load_recording(&wav, &RecordingParams::default())?;
+        let fs = f64::from(rec.sample_rate_hz);
+        let res = resound::signal::analyze(&rec.samples, fs, &AnalyzeParams::default())
+            .map_err(resound::Error::from)?;
+        resound::plot::analysis_png(&o, &res, &format!("render {id}"))
+            .map_err(resound::Error::from)?;
+        Ok(())
+    })
+    .await?;
+    let res = file_response(&out, "image/png", None);
+    let _ = std::fs::remove_file(&out);
+    res
+}
+
+#[derive(Deserialize)]
+struct ReplaceQuery {
+    #[serde(default)]
+    replace: bool,
+}
+
+/// Imports a material file (the JSON `materials export` and the page's download write) into
+/// the library, with the file's own checks; an existing name needs `?replace=true`.
+async fn import_material(
+    State(s): State<Arc<AppState>>,
+    Query(q): Query<ReplaceQuery>,
+    body: Bytes,
+) -> ApiResult<Json<serde_json::Value>> {
+    let path = s.file(&format!("import-{}.json", s.next_id()));
+    std::fs::write(&path, &body).map_err(|e| {
+        ApiError::new(
+            StatusCode::INTERNAL_SERVER_ERROR,
+            format!("cannot store the upload: {e}"),
+        )
+    })?;
+    let lib = s.library.clone();
+    let p = path.clone();
+    let stored = blocking(move || {
+        let m = resound::io::library::read_material(&p).map_err(resound::Error::from)?;
+        material_name(&m.name)?;
+        resound::material::store_material(lib.as_deref(), &m, q.replace)?;
+        Ok(m.name)
+    })
+    .await;
+    let _ = std::fs::remove_file(&path);
+    Ok(Json(serde_json::json!({ "imported": stored? })))
+}
+
+#[derive(Deserialize)]
+struct RenameBody {
+    to: String,
+    #[serde(default)]
+    replace: bool,
+}
+
+/// Renames a library entry; an existing target name needs `replace`.
+async fn rename_material(
+    State(s): State<Arc<AppState>>,
+    Path(name): Path<String>,
+    Json(b): Json<RenameBody>,
+) -> ApiResult<Json<serde_json::Value>> {
+    let from = material_name(&name)?.to_string();
+    let to = material_name(b.to.trim())?.to_string();
+    if to.contains(':') {
+        return Err(ApiError::bad("a saved material's name has no ':'"));
+    }
+    let lib = s.library.clone();
+    blocking(move || {
+        resound::material::rename_material(lib.as_deref(), &from, &to, b.replace)?;
+        Ok(Json(serde_json::json!({ "renamed": from, "to": to })))
+    })
+    .await
 }

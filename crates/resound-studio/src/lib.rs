@@ -113,6 +113,7 @@ pub(crate) struct AppState {
     pub(crate) objects: Mutex<HashMap<u64, Arc<api::ObjectEntry>>>,
     pub(crate) estimates: Mutex<HashMap<u64, Arc<api::EstimateEntry>>>,
     pub(crate) renders: Mutex<HashMap<u64, Arc<api::RenderEntry>>>,
+    pub(crate) meshes: Mutex<HashMap<u64, Arc<api::MeshEntry>>>,
     pub(crate) jobs: Mutex<HashMap<u64, Arc<jobs::Job>>>,
 }
 
@@ -173,6 +174,7 @@ impl Studio {
                 objects: Mutex::default(),
                 estimates: Mutex::default(),
                 renders: Mutex::default(),
+                meshes: Mutex::default(),
                 jobs: Mutex::default(),
             }),
         })

@@ -642,3 +642,112 @@ async fn a_long_job_can_be_cancelled_and_never_blocks_other_requests() {
     assert_eq!(st["state"], "cancelled", "{st}");
     assert!(get(&s, "/api/jobs/99999").await.status == StatusCode::NOT_FOUND);
 }
+
+async fn upload_to(s: &Session, uri: &str, bytes: Vec<u8>) -> Reply {
+    send(s, req(Method::POST, uri).body(Body::from(bytes)).unwrap()).await
+}
+
+#[tokio::test]
+async fn a_mesh_is_uploaded_checked_and_solved_in_its_unit() {
+    let s = session(1 << 20);
+    // A 100 × 30 × 5 mm bar written in millimetres.
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("bar.obj");
+    resound::mesh::write_primitive(
+        resound::mesh::PrimitiveKind::Bar,
+        &[100.0, 30.0, 5.0],
+        8,
+        &obj,
+    )
+    .unwrap();
+    let bytes = std::fs::read(&obj).unwrap();
+    let r = upload_to(&s, "/api/meshes?name=bar.exe", bytes.clone()).await;
+    assert_eq!(r.status, StatusCode::BAD_REQUEST);
+    let r = upload_to(&s, "/api/meshes?name=junk.obj", b"f 1 2 3\n".to_vec()).await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.error());
+    let r = upload_to(&s, "/api/meshes?name=bar.obj&scale=0.001", bytes).await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.error());
+    let mesh = r.json()["mesh"].as_u64().unwrap();
+    assert!(
+        r.json()["text"].as_str().unwrap().contains("closed"),
+        "{}",
+        r.json()["text"]
+    );
+    let r = post(&s, "/api/objects", json!({"kind": "mesh", "modes": 10})).await;
+    assert_eq!(r.status, StatusCode::BAD_REQUEST);
+    let start = post(
+        &s,
+        "/api/objects",
+        json!({"kind": "mesh", "mesh": mesh, "scale": 0.001, "modes": 10}),
+    )
+    .await;
+    let st = finish(&s, &start).await;
+    assert_eq!(st["state"], "done", "{st}");
+    // The same modes as the primitive made in metres.
+    let f1 = st["result"]["report"]["modes"][0]["freq_hz"]
+        .as_f64()
+        .unwrap();
+    let start = post(
+        &s,
+        "/api/objects",
+        json!({"kind": "bar", "sizes_m": [0.1, 0.03, 0.005], "segments": 8, "modes": 10}),
+    )
+    .await;
+    let st = finish(&s, &start).await;
+    let f1m = st["result"]["report"]["modes"][0]["freq_hz"]
+        .as_f64()
+        .unwrap();
+    assert!((f1 / f1m - 1.0).abs() < 1e-6, "{f1} vs {f1m}");
+}
+
+#[tokio::test]
+async fn the_library_imports_and_renames_by_name_only() {
+    let s = session(1 << 20);
+    let mut m = get(&s, "/api/materials/wood").await.json();
+    m["name"] = json!("oak");
+    let body = serde_json::to_vec(&m).unwrap();
+    let r = upload_to(&s, "/api/materials/import", body.clone()).await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.error());
+    assert_eq!(r.json()["imported"], "oak");
+    let r = upload_to(&s, "/api/materials/import", body.clone()).await;
+    assert_eq!(r.status, StatusCode::CONFLICT);
+    let r = upload_to(&s, "/api/materials/import?replace=true", body).await;
+    assert_eq!(r.status, StatusCode::OK);
+    // A file whose name is a path, or that is not a material, is refused.
+    m["name"] = json!("../../x");
+    let r = upload_to(&s, "/api/materials/import", serde_json::to_vec(&m).unwrap()).await;
+    assert_eq!(r.status, StatusCode::BAD_REQUEST, "{}", r.error());
+    let r = upload_to(&s, "/api/materials/import", b"{\"name\": 3}".to_vec()).await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.error());
+    m["name"] = json!("oak");
+    m["alpha"] = json!(-1.0);
+    let r = upload_to(
+        &s,
+        "/api/materials/import?replace=true",
+        serde_json::to_vec(&m).unwrap(),
+    )
+    .await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY, "{}", r.error());
+    // Rename: to a free name; onto a taken one only with replace; a missing one is 404.
+    let r = post(&s, "/api/materials/oak/rename", json!({"to": "birch"})).await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.error());
+    assert_eq!(get(&s, "/api/materials/birch").await.status, StatusCode::OK);
+    assert!(get(&s, "/api/materials/oak").await.status.is_client_error());
+    let r = post(&s, "/api/materials/birch/rename", json!({"to": "metal"})).await;
+    assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.error());
+    let r = post(&s, "/api/materials/oak/rename", json!({"to": "ash"})).await;
+    assert_eq!(r.status, StatusCode::NOT_FOUND, "{}", r.error());
+    let r = post(&s, "/api/materials/birch/rename", json!({"to": "../ash"})).await;
+    assert_eq!(r.status, StatusCode::BAD_REQUEST);
+    let l = get(&s, "/api/materials").await.json();
+    let names: Vec<&str> = l["materials"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e[0]["name"].as_str().unwrap())
+        .collect();
+    assert!(
+        names.contains(&"birch") && !names.contains(&"oak"),
+        "{names:?}"
+    );
+}

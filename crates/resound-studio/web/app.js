@@ -229,10 +229,28 @@ const SHAPES = {
   bowl: ["0.06,0.004,0.04", "radius, wall thickness, depth (m); the rim is at z = 0"],
 };
 
+async function uploadMesh(file) {
+  say(`checking ${file.name}…`);
+  try {
+    const v = await api(`/api/meshes?name=${encodeURIComponent(file.name)}&scale=${encodeURIComponent($("mesh-scale").value)}`, { method: "POST", body: file });
+    state.mesh = v;
+    $("mesh-check").hidden = false;
+    $("mesh-check").textContent = v.text;
+    say(`${v.name}: checked`);
+  } catch (e) {
+    state.mesh = null;
+    say(e.message, true);
+  }
+}
+
 async function solveObject() {
+  const kind = $("kind").value;
+  if (kind === "mesh" && !state.mesh) { say("choose a mesh file first", true); return; }
   const body = {
-    kind: $("kind").value,
-    sizes_m: $("sizes").value.split(",").map(Number),
+    kind,
+    sizes_m: kind === "mesh" ? [] : $("sizes").value.split(",").map(Number),
+    mesh: kind === "mesh" ? state.mesh.mesh : null,
+    scale: Number($("mesh-scale").value),
     modes: Number($("nmodes").value),
     reference: $("reference").value,
   };
@@ -242,9 +260,10 @@ async function solveObject() {
     const start = await post("/api/objects", body);
     const done = await runJob(start, "solve-job");
     const r = done.result;
-    state.object = { id: r.object, report: r.report, kind: body.kind, sizes: body.sizes_m };
+    const what = kind === "mesh" ? state.mesh.name : `${kind} ${body.sizes_m.join(" × ")} m`;
+    state.object = { id: r.object, report: r.report, kind, sizes: body.sizes_m, what };
     $("object").hidden = false;
-    $("obj-title").textContent = `${body.kind} ${body.sizes_m.join(" × ")} m · ${r.report.modes.length} modes from ${r.report.modes[0].freq_hz.toFixed(0)} Hz · ${r.primitive.vertices} vertices`;
+    $("obj-title").textContent = `${what} · ${r.report.modes.length} modes from ${r.report.modes[0].freq_hz.toFixed(0)} Hz · ${r.report.surface_vertices} surface vertices`;
     $("obj-modes").textContent = r.text.split("\n").slice(0, 3).join(" · ");
     const sel = $("shape-mode");
     sel.innerHTML = '<option value="">none</option>';
@@ -405,13 +424,16 @@ async function render() {
   const material = $("audition-material").value;
   say(`rendering ${material}…`);
   try {
+    const micText = $("mic").value.trim();
+    const mic = micText ? micText.split(",").map(Number) : null;
+    if (mic && !(mic.length === 3 && mic.every(Number.isFinite))) throw new Error("the microphone is x,y,z in metres (or empty)");
     const start = await post("/api/render", {
-      material, object: state.object.id, hit_m: state.hit,
+      material, object: state.object.id, hit_m: state.hit, mic_m: mic,
       speed_m_s: Number($("speed").value), duration_s: Number($("duration").value),
     });
     const done = await runJob(start, "render-job");
     const r = done.result;
-    const item = { id: r.render, material, object: `${state.object.kind} ${state.object.sizes.join("×")}`, hit: state.hit.slice(), info: r.info };
+    const item = { id: r.render, material, object: state.object.what, hit: state.hit.slice(), info: r.info };
     state.renders.push(item);
     addRenderRow(item);
     play(await decode(`/api/renders/${r.render}.wav`), `render ${r.render}`);
@@ -441,6 +463,10 @@ function addRenderRow(item) {
     try {
       const d = await api(`/api/compare?recording=${state.recording.id}&render=${item.id}`);
       tr.querySelector(".distance").textContent = d.distance.toFixed(3);
+      $("comparison").hidden = false;
+      $("cmp-recording").src = `/api/recordings/${state.recording.id}/plot.png?strike=${state.recording.report.strike}`;
+      $("cmp-render").src = `/api/renders/${item.id}/plot.png`;
+      $("cmp-render-caption").textContent = `render ${item.id}: ${item.material} on ${item.object} (log-mel distance ${d.distance.toFixed(3)})`;
     } catch (e) { say(e.message, true); }
   };
   const a = document.createElement("a");
@@ -470,6 +496,19 @@ async function loadLibrary(select) {
     a.download = `${m.name}.json`;
     td.appendChild(a);
     if (origin !== "builtin") {
+      const ren = document.createElement("button");
+      ren.className = "small";
+      ren.textContent = "rename";
+      ren.onclick = async () => {
+        const to = prompt(`New name for ${m.name}`, m.name);
+        if (!to || to === m.name) return;
+        try {
+          await post(`/api/materials/${encodeURIComponent(m.name)}/rename`, { to, replace: false });
+          say(`renamed ${m.name} to ${to}`);
+          await loadLibrary(to);
+        } catch (e) { say(e.status === 409 ? `${e.message}: delete it first or choose another name` : e.message, true); }
+      };
+      td.append(" ", ren);
       const del = document.createElement("button");
       del.className = "small";
       del.textContent = "delete";
@@ -496,17 +535,44 @@ function updateButtons() {
 }
 
 // ---------------------------------------------------------------- wiring
+// A picture that fails to load says why (the API's message) instead of showing a broken image.
+function explainImages() {
+  document.querySelectorAll("img").forEach((img) => {
+    img.addEventListener("error", async () => {
+      if (!img.src) return;
+      try { await api(img.src); } catch (e) { say(`${img.alt}: ${e.message}`, true); }
+    });
+  });
+}
+
 async function start() {
+  explainImages();
   const info = await api("/api/info");
   $("version").textContent = `v${info.version}`;
   for (const s of info.samples) $("sample").insertAdjacentHTML("beforeend", `<option>${s}</option>`);
   for (const k of info.primitives) $("kind").insertAdjacentHTML("beforeend", `<option>${k}</option>`);
   $("kind").value = "bar";
   $("shape-hint").textContent = SHAPES.bar[1];
+  $("kind").insertAdjacentHTML("beforeend", '<option value="mesh">mesh (upload)</option>');
   $("kind").onchange = () => {
-    const [sizes, hint] = SHAPES[$("kind").value] || ["", ""];
-    $("sizes").value = sizes;
+    const mesh = $("kind").value === "mesh";
+    document.querySelectorAll(".for-mesh").forEach((e) => { e.hidden = !mesh; });
+    document.querySelectorAll(".for-primitive").forEach((e) => { e.hidden = mesh; });
+    $("mesh-check").hidden = !mesh || !state.mesh;
+    const [sizes, hint] = SHAPES[$("kind").value] || ["", "a closed surface; its coordinates times the unit scale are metres"];
+    if (!mesh) $("sizes").value = sizes;
     $("shape-hint").textContent = hint;
+  };
+  $("mesh-file").onchange = (e) => e.target.files[0] && uploadMesh(e.target.files[0]);
+  $("import").onchange = async (e) => {
+    const f = e.target.files[0];
+    if (!f) return;
+    try {
+      const r = await api(`/api/materials/import?replace=${$("import-replace").checked}`, { method: "POST", body: f });
+      say(`imported ${r.imported}`);
+      await loadLibrary(r.imported);
+    } catch (err) { say(err.status === 409 ? `${err.message}: tick “replace” to overwrite it` : err.message, true); }
+    e.target.value = "";
   };
   $("open-sample").onclick = () => openRecording(post(`/api/samples/${encodeURIComponent($("sample").value)}`, {}));
   const upload = (file) => {

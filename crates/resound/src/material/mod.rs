@@ -142,6 +142,29 @@ pub fn remove_material(path: Option<&Path>, name: &str) -> Result<()> {
     Ok(())
 }
 
+/// Renames the library entry `from` to `to`; an entry named `to` is replaced only when
+/// `replace`.
+///
+/// # Errors
+/// [`Error::Missing`] without such an entry; [`Error::Exists`] when `to` is taken; an invalid
+/// name; an unreadable library.
+pub fn rename_material(path: Option<&Path>, from: &str, to: &str, replace: bool) -> Result<()> {
+    let missing = || Error::Missing(format!("no material {from:?} in the library"));
+    let mut lib = read_library(path)?.ok_or_else(missing)?;
+    let mut m = lib.get(from)?.ok_or_else(missing)?;
+    if from == to {
+        return Ok(());
+    }
+    if !replace && lib.get(to)?.is_some() {
+        return Err(Error::Exists(to.to_string()));
+    }
+    m.name = to.to_string();
+    lib = open_library(path)?;
+    lib.put(&m)?;
+    lib.remove(from)?;
+    Ok(())
+}
+
 /// One line of a material listing (`materials list`): name, the four constants and the origin.
 pub fn listing_line(m: &SoundMaterial, origin: Origin) -> String {
     let line = format!(
