@@ -111,7 +111,12 @@ pub(crate) struct ObjectEntry {
 /// An estimated material, not yet saved.
 pub(crate) struct EstimateEntry {
     material: SoundMaterial,
-    plot: Option<PathBuf>,
+    /// What the picture is drawn from (on first request: the job itself does only what
+    /// `resound estimate` does).
+    outcome: resound::material::EstimateOutcome,
+    settings: resound::estimate::EstimateParams,
+    title: String,
+    plot: std::sync::Mutex<Option<PathBuf>>,
 }
 
 /// An uploaded mesh file.
@@ -669,24 +674,22 @@ async fn estimate(
         };
         let out = resound::material::estimate_files(&job, progress).map_err(|e| error_text(&e))?;
         let id = s.next_id();
-        let plot = s.file(&format!("estimate-{id}.png"));
-        let plot = out
-            .plot(&plot, &rec.name, &job.params.estimate)
-            .ok()
-            .map(|_| plot);
         let view = EstimateView {
             estimate: id,
             material: out.material.clone(),
             text: out.info.to_string(),
-            info: out.info,
-            notes: out.notes,
+            info: out.info.clone(),
+            notes: out.notes.clone(),
         };
         if let Ok(mut m) = s.estimates.lock() {
             m.insert(
                 id,
                 Arc::new(EstimateEntry {
-                    material: out.material,
-                    plot,
+                    material: out.material.clone(),
+                    outcome: out,
+                    settings: job.params.estimate.clone(),
+                    title: rec.name.clone(),
+                    plot: std::sync::Mutex::new(None),
                 }),
             );
         }
@@ -726,11 +729,18 @@ fn safe_file_name(name: &str) -> String {
 
 async fn estimate_plot(State(s): State<Arc<AppState>>, Path(id): Path<u64>) -> ApiResult<Response> {
     let e = get_entry(&s.estimates, id, "estimate")?;
-    let p = e
-        .plot
-        .as_ref()
-        .ok_or_else(|| ApiError::new(StatusCode::NOT_FOUND, "this estimate has no picture"))?;
-    file_response(p, "image/png", None)
+    let path = s.file(&format!("estimate-{id}.png"));
+    let (e2, p) = (e.clone(), path.clone());
+    blocking(move || {
+        let mut made = e2.plot.lock().unwrap_or_else(|p| p.into_inner());
+        if made.is_none() {
+            e2.outcome.plot(&p, &e2.title, &e2.settings)?;
+            *made = Some(p);
+        }
+        Ok(())
+    })
+    .await?;
+    file_response(&path, "image/png", None)
 }
 
 /// A material name from the page: a name (library, built-in or `preset:NAME`), never a path.
