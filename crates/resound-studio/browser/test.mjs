@@ -183,6 +183,17 @@ try {
   assert.equal(await page.locator("#library td", { hasText: /^studio-ramp$/ }).count(), 0);
   assert.equal(await page.locator("#library td", { hasText: /^studio-ramp-2$/ }).count(), 1);
 
+  // 8. A drop test of the material, with its event log on a timeline.
+  await page.fill("#drop-count", "3");
+  await page.selectOption("#drop-material", "studio-ramp-2");
+  await page.click("#drop");
+  await waitStatus(/^rendered the drop: \d+ events/);
+  const impacts = await page.evaluate(() => window.studio.state.scene.events.filter((e) => e.kind === "impact").length);
+  assert.ok(impacts >= 3, `only ${impacts} impacts in the drop`);
+  await page.waitForFunction(() => window.studio.position() > 0.1, null, { timeout: 10000 });
+  await page.locator("#scene-step").screenshot({ path: join(shots, "5-scene.png") });
+  step("screenshot 5-scene.png");
+
   assert.deepEqual(problems, [], problems.join("\n"));
   step(`passed (page interactive in ${ready} ms)`);
 } catch (e) {

@@ -159,6 +159,7 @@ pub(crate) fn routes(state: Arc<AppState>) -> Router {
         .route("/api/renders/{id}", get(render_wav))
         .route("/api/renders/{id}/plot.png", get(render_plot))
         .route("/api/compare", get(compare))
+        .route("/api/scene", post(scene))
         .route("/api/jobs/{id}", get(job).delete(cancel_job))
         .route("/api/jobs/{id}/events", get(job_events))
         .route("/api/materials", get(materials).post(save_material))
@@ -1123,4 +1124,68 @@ async fn rename_material(
         Ok(Json(serde_json::json!({ "renamed": from, "to": to })))
     })
     .await
+}
+
+#[derive(Serialize)]
+struct SceneView {
+    render: u64,
+    summary: resound::scene::SceneSummary,
+    /// The summary as `resound scene` prints it.
+    text: String,
+    events: Vec<resound::physics::Event>,
+}
+
+/// The scene file's fields that name files: a scene from the page names materials only.
+fn scene_names_no_files(scene: &resound::io::scene::SceneFile) -> ApiResult<()> {
+    use resound::io::scene::{MaterialSpec, ShapeFile, SoundFile};
+    for b in &scene.body {
+        let who = &b.name;
+        if matches!(b.shape, ShapeFile::Mesh(_)) {
+            return Err(ApiError::bad(format!(
+                "body {who:?}: the studio's scenes use primitive shapes (solve a mesh as an object)"
+            )));
+        }
+        if let MaterialSpec::Name(n) = &b.material {
+            material_name(n).map_err(|e| ApiError::bad(format!("body {who:?}: {}", e.message)))?;
+        }
+        if b.stats.is_some() || b.surface.is_some() || !matches!(b.sound, SoundFile::Flag(_)) {
+            return Err(ApiError::bad(format!(
+                "body {who:?}: statistics, grains and surface files are not taken from the page"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Renders a scene sent as the scene file's document (JSON): the scene file's checks and
+/// messages, the offline renderer, a WAV and the event log.
+async fn scene(State(s): State<Arc<AppState>>, body: Bytes) -> ApiResult<Json<JobStatus>> {
+    let scene: resound::io::scene::SceneFile =
+        serde_json::from_slice(&body).map_err(|e| ApiError::bad(format!("scene: {e}")))?;
+    scene_names_no_files(&scene)?;
+    Ok(Json(jobs::spawn(&s, "scene", move |s, progress| {
+        let params = resound::scene::SceneRenderParams {
+            library: s.library.clone(),
+            cache_dir: Some(s.file("models")),
+            keep_level: false,
+            live: None,
+        };
+        let r = resound::scene::render_scene_value(scene, "scene", &s.work, &params, progress)
+            .map_err(|e| error_text(&e))?;
+        let id = s.next_id();
+        let wav = s.file(&format!("render-{id}.wav"));
+        let refs: Vec<&[f32]> = r.channels.iter().map(|c| c.as_slice()).collect();
+        resound::io::write_wav_channels(&wav, &refs, r.sample_rate_hz, WavFormat::Pcm24)
+            .map_err(|e| e.to_string())?;
+        if let Ok(mut m) = s.renders.lock() {
+            m.insert(id, Arc::new(RenderEntry { wav }));
+        }
+        serde_json::to_value(SceneView {
+            render: id,
+            text: r.summary.to_string(),
+            summary: r.summary,
+            events: r.events,
+        })
+        .map_err(|e| e.to_string())
+    })))
 }

@@ -751,3 +751,66 @@ async fn the_library_imports_and_renames_by_name_only() {
         "{names:?}"
     );
 }
+
+#[tokio::test]
+async fn a_scene_document_renders_with_the_scene_files_checks_and_names_no_files() {
+    let s = session(1 << 20);
+    let scene = |ball: Value| {
+        json!({
+            "duration": 1.0, "sample_rate": 48000, "stereo": true,
+            "listener": {"position": [0.0, 0.3, 0.5]},
+            "body": [
+                {"name": "table", "fixed": true, "shape": {"box": [0.6, 0.04, 0.4]},
+                 "material": "preset:wood", "density": 700, "position": [0.0, -0.02, 0.0], "modes": 20},
+                ball
+            ]
+        })
+    };
+    let ball = json!({"name": "ball", "shape": {"sphere": 0.02}, "material": "metal",
+                      "density": 7800, "position": [0.0, 0.2, 0.0], "modes": 10});
+    // Files are not named from the page.
+    for (field, value) in [
+        ("shape", json!({"mesh": "/etc/passwd"})),
+        ("material", json!("../lib.json")),
+        ("sound", json!({"grains": "x.grains"})),
+        ("stats", json!("x.stats.json")),
+    ] {
+        let mut b = ball.clone();
+        b[field] = value;
+        let r = send(
+            &s,
+            req(Method::POST, "/api/scene")
+                .header(header::CONTENT_TYPE, "application/json")
+                .body(Body::from(scene(b).to_string()))
+                .unwrap(),
+        )
+        .await;
+        assert_eq!(r.status, StatusCode::BAD_REQUEST, "{field}: {}", r.error());
+    }
+    // The scene file's own checks and messages (a field that is not one).
+    let mut b = ball.clone();
+    b["colour"] = json!("red");
+    let r = post(&s, "/api/scene", scene(b)).await;
+    assert_eq!(r.status, StatusCode::BAD_REQUEST);
+    assert!(r.error().contains("colour"), "{}", r.error());
+    // A ball dropped 20 cm: one first impact at √(2h/g) (less the radius), heard.
+    let start = post(&s, "/api/scene", scene(ball)).await;
+    let st = finish(&s, &start).await;
+    assert_eq!(st["state"], "done", "{st}");
+    let events = st["result"]["events"].as_array().unwrap();
+    let first = events.iter().find(|e| e["kind"] == "impact").unwrap();
+    let t = first["time_s"].as_f64().unwrap();
+    let expect = (2.0 * 0.18 / 9.81f64).sqrt();
+    assert!(
+        (t - expect).abs() < 0.01,
+        "first impact at {t} s, expected {expect}"
+    );
+    let render = st["result"]["render"].as_u64().unwrap();
+    let wav = get(&s, &format!("/api/renders/{render}.wav")).await;
+    let f = s.work.path().join("scene-check.wav");
+    std::fs::write(&f, &wav.body).unwrap();
+    let clip = resound::io::load_audio(&f).unwrap();
+    assert_eq!(clip.channels.len(), 2);
+    assert_eq!(clip.frames(), 48_000);
+    assert!(st["result"]["text"].as_str().unwrap().contains("impacts"));
+}

@@ -478,14 +478,90 @@ function addRenderRow(item) {
   $("renders").querySelector("tbody").appendChild(tr);
 }
 
-// ---------------------------------------------------------------- 5. library
+// ---------------------------------------------------------------- 5. scene preview
+// The page writes a scene file's document (the same fields as a scene TOML) and the library
+// checks and renders it.
+function dropScene() {
+  const n = Math.max(1, Math.min(12, Number($("drop-count").value)));
+  const h = Number($("drop-height").value);
+  const listener = $("drop-listener").value.split(",").map(Number);
+  const shapes = { sphere: { sphere: 0.02 }, box: { box: [0.04, 0.03, 0.02] }, plate: { plate: [0.08, 0.05, 0.004] } };
+  const shape = shapes[$("drop-shape").value];
+  const bodies = [{
+    name: "table", fixed: true, shape: { box: [1.0, 0.04, 0.7] }, material: $("drop-table").value,
+    density: 700, position: [0, -0.02, 0], modes: 30,
+  }];
+  for (let i = 0; i < n; i++) {
+    const x = (i - (n - 1) / 2) * 0.09;
+    bodies.push({
+      name: `object ${i + 1}`, shape, material: $("drop-material").value, density: 2700,
+      position: [x, h + 0.03 * i, 0.05 * ((i % 3) - 1)], rotation: [17 * i, 29 * i, 0],
+      restitution: 0.4, modes: 20,
+    });
+  }
+  return { duration: 2.5, sample_rate: 48000, seed: 1, stereo: true, listener: { position: listener }, body: bodies };
+}
+
+async function renderScene() {
+  $("drop").disabled = true;
+  say("rendering the drop…");
+  try {
+    const start = await api("/api/scene", { method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify(dropScene()) });
+    const done = await runJob(start, "scene-job");
+    const r = done.result;
+    $("scene-result").hidden = false;
+    $("scene-text").textContent = r.text;
+    $("scene-wav").href = `/api/renders/${r.render}.wav`;
+    drawTimeline(r.events, r.summary);
+    state.scene = r;
+    play(await decode(`/api/renders/${r.render}.wav`), `scene ${r.render}`);
+    say(`rendered the drop: ${r.events.length} events in ${done.elapsed_s.toFixed(1)} s`);
+  } catch (e) {
+    say(e.message, true);
+  } finally {
+    $("drop").disabled = false;
+  }
+}
+
+function drawTimeline(events, summary) {
+  const c = $("timeline");
+  c.width = c.clientWidth * devicePixelRatio;
+  const g = c.getContext("2d");
+  const w = c.width, h = c.height;
+  g.clearRect(0, 0, w, h);
+  const pairs = [...new Set(events.map((e) => e.bodies.join(" · ")))];
+  const dur = Math.max(0.1, ...events.map((e) => e.time_s), summary.duration_s || 0);
+  const row = (h - 20) / Math.max(1, pairs.length);
+  const top = Math.max(1e-12, ...events.filter((e) => e.kind === "impact").map((e) => e.force));
+  g.font = "11px system-ui";
+  pairs.forEach((p, i) => { g.fillStyle = "#5b6573"; g.fillText(p, 4, 12 + i * row); });
+  for (const e of events) {
+    const x = 4 + (e.time_s / dur) * (w - 8);
+    const y0 = (pairs.indexOf(e.bodies.join(" · ")) + 1) * row;
+    if (e.kind === "impact") {
+      g.fillStyle = "#d6402f";
+      const hh = Math.max(2, (row - 14) * Math.sqrt(e.force / top));
+      g.fillRect(x - 1, y0 - hh, 2, hh);
+    } else {
+      g.fillStyle = e.kind === "rolling" ? "#2f6fd6" : "#1c9a5b";
+      g.fillRect(x, y0 - 4, 1.5, 3);
+    }
+  }
+  g.fillStyle = "#5b6573";
+  g.fillText(`${dur.toFixed(2)} s`, w - 40, h - 4);
+  g.fillText("0 s", 4, h - 4);
+}
+
+// ---------------------------------------------------------------- 6. library
 async function loadLibrary(select) {
   const l = await api("/api/materials");
   const body = $("library").querySelector("tbody");
   body.innerHTML = "";
   const sel = $("audition-material");
   const keep = select || sel.value;
+  const dropKeep = $("drop-material").value || "metal";
   sel.innerHTML = "";
+  $("drop-material").innerHTML = "";
   for (const [m, origin] of l.materials) {
     const tr = document.createElement("tr");
     tr.innerHTML = `<td>${m.name}</td><td>${m.alpha.toExponential(3)}</td><td>${m.beta.toExponential(3)}</td><td>${m.gamma.toExponential(3)}</td><td>${m.sigma.toExponential(3)}</td><td>${origin}</td>`;
@@ -525,8 +601,10 @@ async function loadLibrary(select) {
     tr.appendChild(td);
     body.appendChild(tr);
     sel.insertAdjacentHTML("beforeend", `<option>${m.name}</option>`);
+    $("drop-material").insertAdjacentHTML("beforeend", `<option>${m.name}</option>`);
   }
   if ([...sel.options].some((o) => o.value === keep)) sel.value = keep;
+  if ([...$("drop-material").options].some((o) => o.value === dropKeep)) $("drop-material").value = dropKeep;
 }
 
 function updateButtons() {
@@ -622,6 +700,7 @@ async function start() {
   $("estimate").onclick = estimate;
   $("save").onclick = save;
   $("render").onclick = render;
+  $("drop").onclick = renderScene;
   await loadLibrary();
   say("ready");
 }
