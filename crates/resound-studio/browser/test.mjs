@@ -117,6 +117,7 @@ try {
   assert.equal(picked.split(",").length, 3);
   await page.selectOption("#shape-mode", "1");
   await page.waitForFunction(() => window.studio.state.surface && window.studio.state.surface.displacement);
+  await page.locator("#object-step").screenshot({ path: join(shots, "2-object-mode.png") });
   // The demo's hit point, typed.
   await page.fill("#hit", "0.02,0.01,0.0025");
   await page.locator("#hit").dispatchEvent("change");

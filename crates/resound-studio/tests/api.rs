@@ -471,6 +471,30 @@ async fn solve_estimate_save_and_render_round_trip() {
     assert!(u.iter().all(|&x| (0.0..=1.0).contains(&x)));
     assert!(u.iter().cloned().fold(0.0, f64::max) > 0.999);
     assert!(u.iter().cloned().fold(1.0, f64::min) < 0.3);
+    // Gains follow mode shapes: mode 1 of the free bar is its first flatwise bending, with
+    // nodal lines 0.224 L from each end (Euler–Bernoulli) — where the shown displacement is
+    // least along the top face.
+    let v: Vec<f64> = shaped["vertices"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let top = v.chunks(3).map(|p| p[2]).fold(f64::MIN, f64::max);
+    for side in [-1.0, 1.0] {
+        let node = v
+            .chunks(3)
+            .zip(&u)
+            .filter(|(p, _)| (p[2] - top).abs() < 1e-6 && p[0] * side > 0.0 && p[1].abs() < 0.01)
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(p, _)| p[0])
+            .unwrap();
+        let expect = side * (0.5 - 0.2242) * 0.1;
+        assert!(
+            (node - expect).abs() < 3e-3,
+            "node at {node} m, expected {expect}"
+        );
+    }
     assert!(get(&s, &format!("/api/objects/{obj}/surface?mode=41"))
         .await
         .status
