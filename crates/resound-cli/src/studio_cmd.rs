@@ -20,6 +20,10 @@ pub struct StudioArgs {
     /// Material library (default: $RESOUND_LIBRARY or ~/.local/share/resound/materials.sqlite).
     #[arg(long)]
     pub library: Option<PathBuf>,
+    /// Keep the session's files (uploads, models, renders) in this folder instead of a
+    /// temporary one that is removed at exit.
+    #[arg(long)]
+    pub work_dir: Option<PathBuf>,
     /// Largest upload, MB.
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u64).range(1..=4096))]
     pub max_upload_mb: u64,
@@ -32,7 +36,7 @@ pub fn run(a: StudioArgs) -> Result<()> {
         port: a.port,
         library: a.library,
         max_upload_bytes: (a.max_upload_mb << 20) as usize,
-        work_dir: None,
+        work_dir: a.work_dir,
     };
     if let Some(w) = params.exposure_warning() {
         eprintln!("warning: {w}");

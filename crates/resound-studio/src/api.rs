@@ -841,6 +841,19 @@ struct RenderBody {
     /// Where the microphone is (model coordinates, m): each mode weighted by what it radiates
     /// there (`resound synth --mic`).
     mic_m: Option<[f64; 3]>,
+    /// The impactor's material (a preset name: steel, glass, wood, …).
+    #[serde(default = "steel")]
+    impactor: String,
+    /// The impactor's radius at the contact, m (its mass: a sphere of that radius).
+    #[serde(default = "five_mm")]
+    impactor_radius_m: f64,
+}
+
+fn steel() -> String {
+    "steel".into()
+}
+fn five_mm() -> f64 {
+    0.005
 }
 
 fn one() -> f64 {
@@ -865,6 +878,7 @@ async fn render(
 ) -> ApiResult<Json<JobStatus>> {
     let obj = get_entry(&s.objects, b.object, "object")?;
     let material = material_name(&b.material)?.to_string();
+    let impactor = Material::preset(&b.impactor).map_err(|e| ApiError::bad(e.to_string()))?;
     Ok(Json(jobs::spawn(&s, "render", move |s, progress| {
         let source = StrikeSource::Object {
             material,
@@ -877,6 +891,8 @@ async fn render(
             speed_m_s: b.speed_m_s,
             duration_s: b.duration_s,
             mic_m: b.mic_m,
+            impactor,
+            impactor_radius_m: b.impactor_radius_m,
             ..StrikeParams::default()
         };
         let (mut strike, mut notes) =

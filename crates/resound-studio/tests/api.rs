@@ -578,6 +578,14 @@ async fn solve_estimate_save_and_render_round_trip() {
     )
     .await;
     assert_eq!(r.status, StatusCode::BAD_REQUEST);
+    let r = post(
+        &s,
+        "/api/render",
+        json!({"material": "ramp", "object": obj, "hit_m": hit, "impactor": "unobtainium"}),
+    )
+    .await;
+    assert_eq!(r.status, StatusCode::BAD_REQUEST);
+    assert!(r.error().contains("unobtainium"), "{}", r.error());
     let start = post(
         &s,
         "/api/render",

@@ -429,6 +429,7 @@ async function render() {
     if (mic && !(mic.length === 3 && mic.every(Number.isFinite))) throw new Error("the microphone is x,y,z in metres (or empty)");
     const start = await post("/api/render", {
       material, object: state.object.id, hit_m: state.hit, mic_m: mic,
+      impactor: $("impactor").value, impactor_radius_m: Number($("impactor-radius").value) / 1000,
       speed_m_s: Number($("speed").value), duration_s: Number($("duration").value),
     });
     const done = await runJob(start, "render-job");
