@@ -68,8 +68,9 @@ enum Command {
     Grains(grains_cmd::GrainsCmd),
     /// Inspect a saved modal model, optionally rescaled to another material or at a hit point.
     Model(modal_cmd::ModelInfoArgs),
-    /// Run the benchmarks and print their figures (table or JSON).
+    /// Resound Studio: a local web app to analyse, estimate, audition and preview in a browser.
     Studio(studio_cmd::StudioArgs),
+    /// Run the benchmarks and print their figures (table or JSON).
     #[command(subcommand)]
     Bench(bench_cmd::BenchCmd),
     /// One benchmark case in a fresh process (used by `bench` to measure peak memory).

@@ -335,6 +335,7 @@ fn help_explains_each_subcommand() {
         "analyze",
         "estimate",
         "materials",
+        "studio",
         "bench",
     ] {
         assert!(
