@@ -11,12 +11,22 @@ function say(msg, error = false) {
   s.className = error ? "error" : "";
 }
 
+// A finished step's line, with every warning the library raised (never silently dropped).
+function sayDone(msg, ...lists) {
+  const seen = new Set();
+  for (const l of lists) for (const w of l || []) seen.add(w.message || String(w));
+  if (!seen.size) { say(msg); return; }
+  say(`${msg} · warning: ${[...seen].join("; ")}`);
+  $("status").className = "warn";
+}
+
 async function api(path, opts = {}) {
   const res = await fetch(path, opts);
   const type = res.headers.get("content-type") || "";
   const body = type.includes("json") ? await res.json() : await res.text();
   if (!res.ok) {
-    const e = new Error((body && body.error) || `${res.status} ${res.statusText}`);
+    const text = typeof body === "string" && body.trim() ? body.trim() : null;
+    const e = new Error((body && body.error) || text || `${res.status} ${res.statusText}`);
     e.status = res.status;
     throw e;
   }
@@ -142,7 +152,7 @@ async function openRecording(promise) {
   try {
     const v = await promise;
     await showRecording(v);
-    say(`analysed ${v.name}: ${v.report.modes.length} modes`);
+    sayDone(`analysed ${v.name}: ${v.report.modes.length} modes`, v.report.warnings);
   } catch (e) {
     say(e.message, true);
   }
@@ -270,7 +280,7 @@ async function solveObject() {
     r.report.modes.forEach((m, i) => sel.insertAdjacentHTML("beforeend", `<option value="${i + 1}">${i + 1}: ${m.freq_hz.toFixed(0)} Hz</option>`));
     await loadSurface();
     if (!state.hit) setHit(defaultHit());
-    say(`solved: ${r.report.modes.length} modes in ${done.elapsed_s.toFixed(1)} s`);
+    sayDone(`solved: ${r.report.modes.length} modes in ${done.elapsed_s.toFixed(1)} s`, done.warnings, r.report.warnings);
   } catch (e) {
     say(e.message, true);
   } finally {
@@ -399,7 +409,7 @@ async function estimate() {
     $("estimate-plot").src = `/api/estimates/${r.estimate}/plot.png`;
     $("save-name").value = r.material.name;
     $("material-download").href = `/api/estimates/${r.estimate}/material.json`;
-    say(`estimated in ${done.elapsed_s.toFixed(1)} s`);
+    sayDone(`estimated in ${done.elapsed_s.toFixed(1)} s`, done.warnings, r.info.warnings);
   } catch (e) {
     say(e.message, true);
   } finally {
@@ -438,7 +448,7 @@ async function render() {
     state.renders.push(item);
     addRenderRow(item);
     play(await decode(`/api/renders/${r.render}.wav`), `render ${r.render}`);
-    say(`rendered ${material}${r.notes.length ? ` (${r.notes.join("; ")})` : ""}`);
+    sayDone(`rendered ${material}${r.notes.length ? ` (${r.notes.join("; ")})` : ""}`, done.warnings, r.info.warnings);
   } catch (e) {
     say(e.message, true);
   } finally {
@@ -516,7 +526,7 @@ async function renderScene() {
     drawTimeline(r.events, r.summary);
     state.scene = r;
     play(await decode(`/api/renders/${r.render}.wav`), `scene ${r.render}`);
-    say(`rendered the drop: ${r.events.length} events in ${done.elapsed_s.toFixed(1)} s`);
+    sayDone(`rendered the drop: ${r.events.length} events in ${done.elapsed_s.toFixed(1)} s`, done.warnings, r.summary.warnings);
   } catch (e) {
     say(e.message, true);
   } finally {
