@@ -20,6 +20,16 @@ pub struct DampedMode {
     pub phase_rad: f64,
 }
 
+/// How sure an analysed mode is: the standard deviations of its frequency and damping (the
+/// Cramér–Rao bound at the measured noise, `resound_signal::crb::mode_sigmas`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ModeSigma {
+    /// σ of the frequency, Hz.
+    pub freq_hz: f64,
+    /// σ of the damping, 1/s.
+    pub damping_per_s: f64,
+}
+
 impl DampedMode {
     /// A mode with zero phase.
     pub fn new(freq_hz: f64, damping_per_s: f64, amplitude: f64) -> Self {

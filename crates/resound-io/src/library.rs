@@ -5,13 +5,72 @@
 //! JSON is the material file itself, so nothing is lost between file and library. Every write
 //! is one transaction. A new library is seeded with the five built-in materials ([`SoundMaterial::builtin`]: Ren 2013
 //! Table I damping, SI γ and σ).
+//! A second table, `files(kind, name, summary, data BLOB, updated)`, keeps statistics
+//! (`resound stats`) and grain dictionaries (`resound grains analyze`) beside the materials:
+//! the bytes of the file as written, checked by the caller before they are stored.
 //! Default location: `$RESOUND_LIBRARY`, else `$XDG_DATA_HOME/resound/materials.sqlite`, else
 //! `~/.local/share/resound/materials.sqlite`.
 
 use crate::{atomic::write_atomic, io_err, parse_err, Result};
 use resound_core::SoundMaterial;
 use rusqlite::{params, Connection, OptionalExtension};
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+
+/// What a file kept in the library holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FileKind {
+    /// Mode statistics (`resound stats`, JSON).
+    Statistics,
+    /// A grain dictionary (`resound grains analyze`, `.grains`).
+    Grains,
+}
+
+impl FileKind {
+    /// The name used in the database and in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Statistics => "statistics",
+            Self::Grains => "grains",
+        }
+    }
+
+    /// The kind called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "statistics" => Some(Self::Statistics),
+            "grains" => Some(Self::Grains),
+            _ => None,
+        }
+    }
+
+    /// The file name an export of `name` gets (`name.stats.json`, `name.grains`).
+    pub fn file_name(self, name: &str) -> String {
+        match self {
+            Self::Statistics => format!("{name}.stats.json"),
+            Self::Grains => format!("{name}.grains"),
+        }
+    }
+}
+
+/// A statistics or grains file kept in the library (its bytes are read with
+/// [`Library::file`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LibraryFile {
+    /// What it holds.
+    pub kind: FileKind,
+    /// Its name in the library.
+    pub name: String,
+    /// One line on what it holds (written when it was stored).
+    pub summary: String,
+    /// Its size, bytes.
+    pub bytes: u64,
+    /// When it was stored (UTC, SQLite `datetime`).
+    pub updated: String,
+}
+
+const FILES_TABLE: &str = "CREATE TABLE IF NOT EXISTS files (kind TEXT NOT NULL, name TEXT NOT NULL, summary TEXT NOT NULL, data BLOB NOT NULL, updated TEXT NOT NULL, PRIMARY KEY (kind, name))";
 
 /// An open material library.
 pub struct Library {
@@ -73,6 +132,7 @@ impl Library {
                 .map_err(|e| db_err(path, e))?;
             }
         }
+        tx.execute(FILES_TABLE, []).map_err(|e| db_err(path, e))?;
         tx.commit().map_err(|e| db_err(path, e))?;
         Ok(Self {
             conn,
@@ -159,6 +219,131 @@ impl Library {
         let tx = self.conn.transaction().map_err(|e| db_err(&self.path, e))?;
         let n = tx
             .execute("DELETE FROM materials WHERE name = ?1", params![name])
+            .map_err(|e| db_err(&self.path, e))?;
+        tx.commit().map_err(|e| db_err(&self.path, e))?;
+        Ok(n > 0)
+    }
+}
+
+impl Library {
+    /// Whether the files table exists (a library written by an earlier version, opened for
+    /// reading, has none: it holds no files).
+    fn has_files_table(&self) -> Result<bool> {
+        Ok(self
+            .conn
+            .query_row(
+                "SELECT count(*) FROM sqlite_master WHERE type = 'table' AND name = 'files'",
+                [],
+                |r| r.get::<_, i64>(0),
+            )
+            .map_err(|e| db_err(&self.path, e))?
+            > 0)
+    }
+
+    /// Every statistics and grains file kept, by kind then name.
+    pub fn files(&self) -> Result<Vec<LibraryFile>> {
+        if !self.has_files_table()? {
+            return Ok(Vec::new());
+        }
+        let mut st = self
+            .conn
+            .prepare(
+                "SELECT kind, name, summary, length(data), updated FROM files ORDER BY kind, name",
+            )
+            .map_err(|e| db_err(&self.path, e))?;
+        let rows = st
+            .query_map([], |r| {
+                Ok((
+                    r.get::<_, String>(0)?,
+                    r.get::<_, String>(1)?,
+                    r.get::<_, String>(2)?,
+                    r.get::<_, i64>(3)?,
+                    r.get::<_, String>(4)?,
+                ))
+            })
+            .map_err(|e| db_err(&self.path, e))?;
+        let mut out = Vec::new();
+        for row in rows {
+            let (kind, name, summary, bytes, updated) = row.map_err(|e| db_err(&self.path, e))?;
+            let kind = FileKind::from_name(&kind).ok_or_else(|| {
+                parse_err(
+                    &self.path,
+                    format!("file {name:?} has an unknown kind {kind:?}"),
+                )
+            })?;
+            out.push(LibraryFile {
+                kind,
+                name,
+                summary,
+                bytes: bytes.max(0) as u64,
+                updated,
+            });
+        }
+        Ok(out)
+    }
+
+    /// The bytes of the `kind` file called `name`, if any.
+    pub fn file(&self, kind: FileKind, name: &str) -> Result<Option<Vec<u8>>> {
+        if !self.has_files_table()? {
+            return Ok(None);
+        }
+        self.conn
+            .query_row(
+                "SELECT data FROM files WHERE kind = ?1 AND name = ?2",
+                params![kind.name(), name],
+                |r| r.get(0),
+            )
+            .optional()
+            .map_err(|e| db_err(&self.path, e))
+    }
+
+    /// Stores `data` as the `kind` file `name` with its `summary`, replacing one of that kind
+    /// and name only when `replace`: returns `false` (and changes nothing) when one exists
+    /// and `replace` is not set. The check and the write are one transaction, so of two
+    /// writers of a new name one wins and the other hears it exists. The caller checks that
+    /// `data` is what `kind` says.
+    pub fn put_file(
+        &mut self,
+        kind: FileKind,
+        name: &str,
+        summary: &str,
+        data: &[u8],
+        replace: bool,
+    ) -> Result<bool> {
+        let tx = self.conn.transaction().map_err(|e| db_err(&self.path, e))?;
+        tx.execute(FILES_TABLE, [])
+            .map_err(|e| db_err(&self.path, e))?;
+        let existed: bool = tx
+            .query_row(
+                "SELECT count(*) FROM files WHERE kind = ?1 AND name = ?2",
+                params![kind.name(), name],
+                |r| r.get::<_, i64>(0),
+            )
+            .map_err(|e| db_err(&self.path, e))?
+            > 0;
+        if existed && !replace {
+            return Ok(false);
+        }
+        tx.execute(
+            "INSERT OR REPLACE INTO files (kind, name, summary, data, updated) VALUES (?1, ?2, ?3, ?4, datetime('now'))",
+            params![kind.name(), name, summary, data],
+        )
+        .map_err(|e| db_err(&self.path, e))?;
+        tx.commit().map_err(|e| db_err(&self.path, e))?;
+        Ok(true)
+    }
+
+    /// Removes the `kind` file `name`; returns whether it existed.
+    pub fn remove_file(&mut self, kind: FileKind, name: &str) -> Result<bool> {
+        if !self.has_files_table()? {
+            return Ok(false);
+        }
+        let tx = self.conn.transaction().map_err(|e| db_err(&self.path, e))?;
+        let n = tx
+            .execute(
+                "DELETE FROM files WHERE kind = ?1 AND name = ?2",
+                params![kind.name(), name],
+            )
             .map_err(|e| db_err(&self.path, e))?;
         tx.commit().map_err(|e| db_err(&self.path, e))?;
         Ok(n > 0)

@@ -72,6 +72,10 @@ pub struct Analysis {
     pub conditioning: crate::condition::Conditioning,
     /// Modes sorted by frequency; t = 0 at the onset.
     pub modes: Vec<DampedMode>,
+    /// How sure each mode is (parallel to `modes`): σ of f and d, the Cramér–Rao bound at
+    /// `noise_rms` over the samples analysed ([`crate::crb::mode_sigmas`]); `None` where the
+    /// bound is singular.
+    pub sigma: Vec<Option<resound_core::damped::ModeSigma>>,
     /// Standard deviation of the residual (robust), full scale = 1.
     pub noise_rms: f64,
     /// Samples analysed after the onset.
@@ -114,17 +118,21 @@ impl std::fmt::Display for Analysis {
         )?;
         writeln!(
             f,
-            "{:>4} {:>12} {:>12} {:>10} {:>9} {:>8}",
-            "#", "freq_hz", "damping_1/s", "amplitude", "level_dB", "phase"
+            "{:>4} {:>12} {:>9} {:>12} {:>9} {:>10} {:>9} {:>8}",
+            "#", "freq_hz", "±f_hz", "damping_1/s", "±d_1/s", "amplitude", "level_dB", "phase"
         )?;
         let strongest = self.modes.iter().map(|m| m.amplitude).fold(0.0, f64::max);
         for (i, m) in self.modes.iter().enumerate() {
+            let sigma = self.sigma.get(i).copied().flatten();
+            let pm = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2e}"));
             writeln!(
                 f,
-                "{:>4} {:>12.3} {:>12.3} {:>10.3e} {:>9.1} {:>8.3}",
+                "{:>4} {:>12.3} {:>9} {:>12.3} {:>9} {:>10.3e} {:>9.1} {:>8.3}",
                 i + 1,
                 m.freq_hz,
+                pm(sigma.map(|s| s.freq_hz)),
                 m.damping_per_s,
+                pm(sigma.map(|s| s.damping_per_s)),
                 m.amplitude,
                 20.0 * (m.amplitude / strongest).log10(),
                 m.phase_rad
@@ -500,6 +508,7 @@ pub fn analyze(
         strike,
         strike_reason,
         conditioning,
+        sigma: crate::crb::mode_sigmas(&modes, sample_rate_hz, seg.len(), info.noise_rms),
         modes,
         noise_rms: info.noise_rms,
         samples: seg.len(),

@@ -82,6 +82,8 @@ try {
   assert.ok(rows >= 3, `only ${rows} modes shown`);
   const firstF = Number(await page.locator("#modes tbody tr:first-child td:nth-child(2)").textContent());
   assert.ok(firstF > 20 && firstF < 22050, `first mode at ${firstF} Hz`);
+  // Each mode says how sure it is (σ of f and d).
+  assert.match(await page.locator("#modes tbody tr:first-child td:nth-child(3)").textContent(), /^±\d/);
   await page.waitForFunction(() => document.getElementById("spectrogram").naturalWidth > 0);
   assert.match(await page.locator("#conditioning").textContent(), /strike/);
 
@@ -120,11 +122,53 @@ try {
   assert.equal(picked.split(",").length, 3);
   await page.selectOption("#shape-mode", "1");
   await page.waitForFunction(() => window.studio.state.surface && window.studio.state.surface.displacement);
+  // Hear the shown mode alone, as the audition's material makes it sound at the hit.
+  await page.click("#hear-mode");
+  await waitStatus(/^object mode 1: \d/);
+  assert.match(await page.locator("#mode-info").textContent(), /dB re the loudest mode/);
+  await page.waitForFunction(() => window.studio.playing() === "object mode 1" && window.studio.position() > 0.05, null, { timeout: 10000 });
+  await page.click("#stop");
   await page.locator("#object-step").screenshot({ path: join(shots, "2-object-mode.png") });
   // The demo's hit point, typed.
   await page.fill("#hit", "0.02,0.01,0.0025");
   await page.locator("#hit").dispatchEvent("change");
   await shot("2-object");
+
+  // The page stays responsive during a long solve: while it runs, the server answers, a
+  // recording plays and the page draws frames; the solve is still running after all of it
+  // (an order, not a timing), and is then cancelled.
+  await page.selectOption("#kind", "plate");
+  await page.fill("#sizes", "0.3,0.2,0.003");
+  await page.fill("#nmodes", "300");
+  await page.click("#solve");
+  await page.locator("#solve-job").waitFor({ state: "visible" });
+  const during = await page.evaluate(async () => {
+    const t = performance.now();
+    const ok = (await fetch("/api/materials")).ok;
+    const answer = performance.now() - t;
+    let frames = 0, gap = 0, last = performance.now();
+    await new Promise((done) => {
+      const tick = (now) => { frames++; gap = Math.max(gap, now - last); last = now; if (frames < 20) requestAnimationFrame(tick); else done(); };
+      requestAnimationFrame(tick);
+    });
+    return { ok, answer, frames, gap };
+  });
+  await page.click('button[data-part="recording"]');
+  await page.waitForFunction(() => window.studio.position() > 0.1, null, { timeout: 10000 });
+  await page.click("#stop");
+  assert.ok(during.ok && during.frames === 20);
+  assert.equal(await page.locator("#solve-job").isVisible(), true, "the solve ended before the checks: make it longer");
+  await page.click("#solve-job .cancel");
+  await waitStatus(/cancelled/);
+  step(`during a 300-mode solve: /api/materials answered in ${during.answer.toFixed(0)} ms, 20 frames with the longest gap ${during.gap.toFixed(0)} ms, the recording played`);
+  // Back to the demo's bar for the estimate.
+  await page.selectOption("#kind", "bar");
+  await page.fill("#sizes", "0.1,0.03,0.005");
+  await page.fill("#nmodes", "40");
+  await page.click("#solve");
+  await waitStatus(/^solved: 40 modes/);
+  await page.fill("#hit", "0.02,0.01,0.0025");
+  await page.locator("#hit").dispatchEvent("change");
 
   // 4. Estimate, then save under a name; saving again is refused until "replace" is ticked.
   await page.click("#estimate");
@@ -186,6 +230,19 @@ try {
   await waitStatus(/^renamed studio-ramp to studio-ramp-2$/);
   assert.equal(await page.locator("#library td", { hasText: /^studio-ramp$/ }).count(), 0);
   assert.equal(await page.locator("#library td", { hasText: /^studio-ramp-2$/ }).count(), 1);
+
+  // 7b. Keep a statistics file in the library: listed in the page and by the CLI, served back
+  // byte for byte.
+  const statsFile = join(work, "tin.stats.json");
+  writeFileSync(statsFile, JSON.stringify({ material: "tin", modes: 1, mean: [7, -20, -60], covariance: [0.1, 0, 0, 0, 4, 0, 0, 0, 25], sources: 2 }));
+  await page.setInputFiles("#keep-file", statsFile);
+  await waitStatus(/^kept statistics tin: tin: 1 modes/);
+  assert.equal(await page.locator("#kept td", { hasText: /^tin$/ }).count(), 1);
+  const listed = execFileSync(bin, ["materials", "list", "--library", library]).toString();
+  assert.match(listed, /tin\s+statistics/);
+  const back = Buffer.from(await fetchBytes("/api/library/files/statistics/tin"));
+  assert.ok(back.equals(readFileSync(statsFile)), "the kept file changed");
+  await page.locator("#library-step").screenshot({ path: join(shots, "6-library.png") });
 
   // 8. A drop test of the material, with its event log on a timeline.
   await page.fill("#drop-count", "3");

@@ -152,6 +152,7 @@ pub(crate) fn routes(state: Arc<AppState>) -> Router {
         .route("/api/objects", post(solve))
         .route("/api/objects/{id}/surface", get(surface))
         .route("/api/objects/{id}/model.rmodal", get(object_model))
+        .route("/api/objects/{id}/mode/{k}", post(object_mode))
         .route("/api/estimate", post(estimate))
         .route("/api/estimates/{id}/material.json", get(estimate_material))
         .route("/api/estimates/{id}/plot.png", get(estimate_plot))
@@ -168,6 +169,14 @@ pub(crate) fn routes(state: Arc<AppState>) -> Router {
             post(import_material).layer(DefaultBodyLimit::max(limit)),
         )
         .route("/api/materials/{name}/rename", post(rename_material))
+        .route(
+            "/api/library/files",
+            post(store_kept_file).layer(DefaultBodyLimit::max(limit)),
+        )
+        .route(
+            "/api/library/files/{kind}/{name}",
+            get(kept_file).delete(remove_kept_file),
+        )
         .route(
             "/api/materials/{name}",
             delete(remove_material).get(material_json),
@@ -396,6 +405,11 @@ fn file_response(
             format!("cannot read {}: {e}", path.display()),
         )
     })?;
+    Ok(bytes_response(bytes, mime, download))
+}
+
+/// `bytes` as a response of type `mime`, offered for download as `download` when given.
+fn bytes_response(bytes: Vec<u8>, mime: &'static str, download: Option<&str>) -> Response {
     let mut res = ([(header::CONTENT_TYPE, mime)], bytes).into_response();
     if let Some(name) = download {
         let value = format!(
@@ -406,7 +420,7 @@ fn file_response(
             res.headers_mut().insert(header::CONTENT_DISPOSITION, v);
         }
     }
-    Ok(res)
+    res
 }
 
 async fn recording_audio(
@@ -613,6 +627,51 @@ async fn surface(
     blocking(move || {
         let model = resound::io::model_file::load(&path).map_err(resound::Error::from)?;
         Ok(Json(resound::object::SurfaceView::new(&model, q.mode)?))
+    })
+    .await
+}
+
+#[derive(Deserialize)]
+struct ObjectModeBody {
+    material: String,
+    hit_m: [f64; 3],
+    #[serde(default = "two")]
+    duration_s: f64,
+}
+
+#[derive(Serialize)]
+struct ObjectModeView {
+    /// The sound, served as a render (`/api/renders/{id}`).
+    render: u64,
+    info: resound::strike::ObjectModeInfo,
+}
+
+/// Mode `k` of the object alone as `material` makes it sound at the hit
+/// ([`resound::strike::object_mode`]), kept as a render.
+async fn object_mode(
+    State(s): State<Arc<AppState>>,
+    Path((id, k)): Path<(u64, usize)>,
+    Json(b): Json<ObjectModeBody>,
+) -> ApiResult<Json<ObjectModeView>> {
+    let obj = get_entry(&s.objects, id, "object")?;
+    let material = material_name(&b.material)?.to_string();
+    blocking(move || {
+        let source = StrikeSource::Object {
+            material,
+            library: s.library.clone(),
+            object: obj.model_path.clone(),
+            object_params: Default::default(),
+            hit_m: b.hit_m,
+        };
+        let fs = StrikeParams::default().sample_rate_hz;
+        let (x, info) = resound::strike::object_mode(&source, k, b.duration_s, fs)?;
+        let render = s.next_id();
+        let wav = s.file(&format!("render-{render}.wav"));
+        write_wav(&wav, &x, fs, WavFormat::Float32).map_err(resound::Error::from)?;
+        if let Ok(mut m) = s.renders.lock() {
+            m.insert(render, Arc::new(RenderEntry { wav }));
+        }
+        Ok(Json(ObjectModeView { render, info }))
     })
     .await
 }
@@ -1204,4 +1263,73 @@ async fn scene(State(s): State<Arc<AppState>>, body: Bytes) -> ApiResult<Json<Jo
         })
         .map_err(|e| e.to_string())
     })))
+}
+
+#[derive(Deserialize)]
+struct KeptFileQuery {
+    name: String,
+    #[serde(default)]
+    replace: bool,
+}
+
+/// Keeps a statistics file or a grain dictionary (the body) in the library under `?name=`,
+/// after reading it back as one; an existing one of that kind and name needs `&replace=true`.
+async fn store_kept_file(
+    State(s): State<Arc<AppState>>,
+    Query(q): Query<KeptFileQuery>,
+    body: Bytes,
+) -> ApiResult<Json<resound::io::library::LibraryFile>> {
+    let name = material_name(q.name.trim())?.to_string();
+    let lib = s.library.clone();
+    blocking(move || {
+        Ok(Json(resound::material::store_file(
+            lib.as_deref(),
+            &name,
+            &body,
+            q.replace,
+        )?))
+    })
+    .await
+}
+
+fn kept_kind(kind: &str) -> ApiResult<resound::io::library::FileKind> {
+    resound::io::library::FileKind::from_name(kind).ok_or_else(|| {
+        ApiError::new(
+            StatusCode::NOT_FOUND,
+            format!("no kind {kind:?} (statistics or grains)"),
+        )
+    })
+}
+
+/// A kept file's bytes, offered as `name.stats.json` or `name.grains`.
+async fn kept_file(
+    State(s): State<Arc<AppState>>,
+    Path((kind, name)): Path<(String, String)>,
+) -> ApiResult<Response> {
+    let kind = kept_kind(&kind)?;
+    let name = material_name(&name)?.to_string();
+    let lib = s.library.clone();
+    blocking(move || {
+        let bytes = resound::material::kept_file(lib.as_deref(), kind, &name)?;
+        let mime = match kind {
+            resound::io::library::FileKind::Statistics => "application/json",
+            resound::io::library::FileKind::Grains => "application/octet-stream",
+        };
+        Ok(bytes_response(bytes, mime, Some(&kind.file_name(&name))))
+    })
+    .await
+}
+
+async fn remove_kept_file(
+    State(s): State<Arc<AppState>>,
+    Path((kind, name)): Path<(String, String)>,
+) -> ApiResult<Json<serde_json::Value>> {
+    let kind = kept_kind(&kind)?;
+    let name = material_name(&name)?.to_string();
+    let lib = s.library.clone();
+    blocking(move || {
+        resound::material::remove_file(lib.as_deref(), kind, &name)?;
+        Ok(Json(serde_json::json!({ "removed": name, "kind": kind })))
+    })
+    .await
 }

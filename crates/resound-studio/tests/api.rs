@@ -500,6 +500,44 @@ async fn solve_estimate_save_and_render_round_trip() {
         .status
         .is_client_error());
 
+    // Hear one mode: at its nodal line it is far quieter among the others than at the bar's
+    // end, where bending modes have their largest motion; its frequency is the solve's.
+    let hear = |x: f64, k: usize| {
+        let s = &s;
+        async move {
+            post(
+                s,
+                &format!("/api/objects/{obj}/mode/{k}"),
+                json!({"material": "aluminium", "hit_m": [x, 0.0, top], "duration_s": 0.5}),
+            )
+            .await
+        }
+    };
+    let end = hear(0.05, 1).await.json();
+    let node = hear((0.5 - 0.2242) * 0.1, 1).await.json();
+    let f1 = st["result"]["report"]["modes"][0]["freq_hz"]
+        .as_f64()
+        .unwrap();
+    let f = end["info"]["freq_hz"].as_f64().unwrap();
+    assert!((f / f1 - 1.0).abs() < 1e-6, "{f} vs {f1}");
+    let (l_end, l_node) = (
+        end["info"]["level_db"].as_f64().unwrap(),
+        node["info"]["level_db"].as_f64().unwrap(),
+    );
+    assert!(
+        l_node < l_end - 15.0,
+        "mode 1: {l_node} dB at its node, {l_end} dB at the end"
+    );
+    let wav = get(&s, &format!("/api/renders/{}", end["render"])).await;
+    let heard = s.work.path().join("mode1.wav");
+    std::fs::write(&heard, &wav.body).unwrap();
+    let clip = resound::io::load_audio(&heard).unwrap();
+    assert_eq!(clip.channels[0].len(), 24_000);
+    let peak = clip.channels[0].iter().fold(0.0f32, |a, x| a.max(x.abs()));
+    assert!((peak - 0.5).abs() < 0.01, "{peak}");
+    assert!(hear(0.05, 41).await.error().contains("no mode 41"));
+    assert!(hear(0.05, 0).await.status.is_client_error());
+
     // Estimate from the recording, as the demo does.
     let hit = [0.02, 0.01, 0.0025];
     let r = post(
@@ -845,4 +883,67 @@ async fn a_scene_document_renders_with_the_scene_files_checks_and_names_no_files
     assert_eq!(clip.channels.len(), 2);
     assert_eq!(clip.frames(), 48_000);
     assert!(st["result"]["text"].as_str().unwrap().contains("impacts"));
+}
+
+#[tokio::test]
+async fn statistics_and_grain_files_are_kept_listed_and_served_by_name() {
+    let s = session(1 << 20);
+    let stats = serde_json::to_vec(&json!({
+        "material": "tin", "modes": 1, "mean": [7.0, -20.0, -60.0],
+        "covariance": [0.1, 0, 0, 0, 4.0, 0, 0, 0, 25.0], "sources": 2
+    }))
+    .unwrap();
+    let r = upload_to(&s, "/api/library/files?name=tin", stats.clone()).await;
+    assert_eq!(r.status, StatusCode::OK, "{}", r.error());
+    assert_eq!(r.json()["kind"], "statistics");
+    // Never silently replaced; replaced when asked.
+    let r = upload_to(&s, "/api/library/files?name=tin", stats.clone()).await;
+    assert_eq!(r.status, StatusCode::CONFLICT, "{}", r.error());
+    let r = upload_to(
+        &s,
+        "/api/library/files?name=tin&replace=true",
+        stats.clone(),
+    )
+    .await;
+    assert_eq!(r.status, StatusCode::OK);
+    // Listed with the materials.
+    let list = get(&s, "/api/materials").await.json();
+    let files = list["files"].as_array().unwrap();
+    assert_eq!(files.len(), 1);
+    assert_eq!(files[0]["name"], "tin");
+    assert!(files[0]["summary"].as_str().unwrap().contains("1 modes"));
+    // Served as the file it was, under its file name.
+    let d = get(&s, "/api/library/files/statistics/tin").await;
+    assert_eq!(d.body, stats);
+    assert_eq!(d.content_type, "application/json");
+    // Refusals: not a file of either kind, a name that is a path, an unknown kind, too big.
+    let r = upload_to(&s, "/api/library/files?name=junk", b"RIFF....".to_vec()).await;
+    assert_eq!(r.status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(
+        r.error().contains("neither a statistics file"),
+        "{}",
+        r.error()
+    );
+    let r = upload_to(&s, "/api/library/files?name=..%2Fx", stats.clone()).await;
+    assert_eq!(r.status, StatusCode::BAD_REQUEST, "{}", r.error());
+    assert!(get(&s, "/api/library/files/poems/tin").await.status == StatusCode::NOT_FOUND);
+    let r = upload_to(&s, "/api/library/files?name=big", vec![b' '; 2 << 20]).await;
+    assert_eq!(r.status, StatusCode::PAYLOAD_TOO_LARGE);
+    // Removed once; then it is missing.
+    let r = send(
+        &s,
+        req(Method::DELETE, "/api/library/files/statistics/tin")
+            .body(Body::empty())
+            .unwrap(),
+    )
+    .await;
+    assert_eq!(r.status, StatusCode::OK);
+    assert_eq!(
+        get(&s, "/api/library/files/statistics/tin").await.status,
+        StatusCode::NOT_FOUND
+    );
+    assert!(get(&s, "/api/materials").await.json()["files"]
+        .as_array()
+        .unwrap()
+        .is_empty());
 }

@@ -37,6 +37,13 @@ const post = (path, body) =>
   api(path, { method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify(body) });
 
 // A job: its progress by server-sent events, its result when done.
+// A job that did not finish: cancelled by the user (said plainly, not as an error) or failed.
+function jobError(s) {
+  const e = new Error(s.state === "cancelled" ? `${s.kind} cancelled` : s.error || s.state);
+  e.cancelled = s.state === "cancelled";
+  return e;
+}
+
 function runJob(start, box) {
   const el = $(box);
   const bar = el.querySelector("progress");
@@ -58,7 +65,7 @@ function runJob(start, box) {
       events.close();
       el.hidden = true;
       if (s.state === "done") resolve(s);
-      else reject(new Error(s.state === "cancelled" ? "cancelled" : s.error));
+      else reject(jobError(s));
     };
     events.onerror = () => {
       // The stream ends after the last status; a real loss shows as a still-running job.
@@ -67,7 +74,7 @@ function runJob(start, box) {
         events.close();
         el.hidden = true;
         if (s.state === "done") resolve(s);
-        else reject(new Error(s.error || s.state));
+        else reject(jobError(s));
       }).catch(reject);
     };
   });
@@ -154,7 +161,7 @@ async function openRecording(promise) {
     await showRecording(v);
     sayDone(`analysed ${v.name}: ${v.report.modes.length} modes`, v.report.warnings);
   } catch (e) {
-    say(e.message, true);
+    say(e.message, !e.cancelled);
   }
 }
 
@@ -174,7 +181,9 @@ async function showRecording(v) {
   r.modes.forEach((m, i) => {
     const tr = document.createElement("tr");
     const db = 20 * Math.log10(m.amplitude / top);
-    tr.innerHTML = `<td>${i + 1}</td><td>${m.freq_hz.toFixed(1)}</td><td>${m.damping_per_s.toFixed(2)}</td><td>${db.toFixed(1)}</td>`;
+    const sg = (r.sigma || [])[i];
+    const pm = (x) => (x == null ? "–" : `±${x.toPrecision(2)}`);
+    tr.innerHTML = `<td>${i + 1}</td><td>${m.freq_hz.toFixed(1)}</td><td class="sigma">${pm(sg && sg.freq_hz)}</td><td>${m.damping_per_s.toFixed(2)}</td><td class="sigma">${pm(sg && sg.damping_per_s)}</td><td>${db.toFixed(1)}</td>`;
     const td = document.createElement("td");
     const b = document.createElement("button");
     b.className = "small";
@@ -225,7 +234,7 @@ function drawWave(buf, r) {
       const v = await post(`/api/recordings/${state.recording.id}/analyze`, { strike: best + 1 });
       await showRecording(v);
       say(`strike ${best + 1}: ${v.report.modes.length} modes`);
-    } catch (e) { say(e.message, true); }
+    } catch (e) { say(e.message, !e.cancelled); }
   };
 }
 
@@ -249,7 +258,7 @@ async function uploadMesh(file) {
     say(`${v.name}: checked`);
   } catch (e) {
     state.mesh = null;
-    say(e.message, true);
+    say(e.message, !e.cancelled);
   }
 }
 
@@ -282,7 +291,7 @@ async function solveObject() {
     if (!state.hit) setHit(defaultHit());
     sayDone(`solved: ${r.report.modes.length} modes in ${done.elapsed_s.toFixed(1)} s`, done.warnings, r.report.warnings);
   } catch (e) {
-    say(e.message, true);
+    say(e.message, !e.cancelled);
   } finally {
     $("solve").disabled = false;
     updateButtons();
@@ -300,7 +309,23 @@ function defaultHit() {
   return [v[best], v[best + 1], v[best + 2]];
 }
 
+async function hearMode() {
+  const k = $("shape-mode").value;
+  if (!k || !state.hit) return;
+  const material = $("audition-material").value;
+  try {
+    const v = await post(`/api/objects/${state.object.id}/mode/${k}`, { material, hit_m: state.hit });
+    const i = v.info;
+    $("mode-info").textContent = `mode ${i.mode} in ${material}: ${i.freq_hz.toFixed(1)} Hz, d ${i.damping_per_s.toFixed(2)} 1/s, ${i.level_db.toFixed(1)} dB re the loudest mode at this hit (played normalized)`;
+    play(await decode(`/api/renders/${v.render}.wav`), `object mode ${i.mode}`);
+    sayDone(`object mode ${i.mode}: ${i.freq_hz.toFixed(1)} Hz`, i.note ? [i.note] : []);
+  } catch (e) {
+    say(e.message, !e.cancelled);
+  }
+}
+
 async function loadSurface() {
+  $("hear-mode").disabled = !$("shape-mode").value;
   const mode = $("shape-mode").value;
   state.surface = await api(`/api/objects/${state.object.id}/surface${mode ? `?mode=${mode}` : ""}`);
   drawObject();
@@ -411,7 +436,7 @@ async function estimate() {
     $("material-download").href = `/api/estimates/${r.estimate}/material.json`;
     sayDone(`estimated in ${done.elapsed_s.toFixed(1)} s`, done.warnings, r.info.warnings);
   } catch (e) {
-    say(e.message, true);
+    say(e.message, !e.cancelled);
   } finally {
     updateButtons();
   }
@@ -450,7 +475,7 @@ async function render() {
     play(await decode(`/api/renders/${r.render}.wav`), `render ${r.render}`);
     sayDone(`rendered ${material}${r.notes.length ? ` (${r.notes.join("; ")})` : ""}`, done.warnings, r.info.warnings);
   } catch (e) {
-    say(e.message, true);
+    say(e.message, !e.cancelled);
   } finally {
     updateButtons();
   }
@@ -460,7 +485,8 @@ function addRenderRow(item) {
   const tr = document.createElement("tr");
   tr.dataset.render = item.id;
   const peak = 20 * Math.log10(item.info.peak);
-  tr.innerHTML = `<td>${state.renders.length}</td><td>${item.material}</td><td>${item.object}</td><td>${item.hit.map((x) => x.toFixed(3)).join(", ")}</td><td>${peak.toFixed(1)} dBFS</td><td class="distance">–</td>`;
+  cells(tr, [String(state.renders.length), item.material, item.object, item.hit.map((x) => x.toFixed(3)).join(", "), `${peak.toFixed(1)} dBFS`, "–"]);
+  tr.lastChild.className = "distance";
   const td = document.createElement("td");
   const b = document.createElement("button");
   b.className = "small";
@@ -478,7 +504,7 @@ function addRenderRow(item) {
       $("cmp-recording").src = `/api/recordings/${state.recording.id}/plot.png?strike=${state.recording.report.strike}`;
       $("cmp-render").src = `/api/renders/${item.id}/plot.png`;
       $("cmp-render-caption").textContent = `render ${item.id}: ${item.material} on ${item.object} (log-mel distance ${d.distance.toFixed(3)})`;
-    } catch (e) { say(e.message, true); }
+    } catch (e) { say(e.message, !e.cancelled); }
   };
   const a = document.createElement("a");
   a.href = `/api/renders/${item.id}.wav`;
@@ -528,7 +554,7 @@ async function renderScene() {
     play(await decode(`/api/renders/${r.render}.wav`), `scene ${r.render}`);
     sayDone(`rendered the drop: ${r.events.length} events in ${done.elapsed_s.toFixed(1)} s`, done.warnings, r.summary.warnings);
   } catch (e) {
-    say(e.message, true);
+    say(e.message, !e.cancelled);
   } finally {
     $("drop").disabled = false;
   }
@@ -575,7 +601,7 @@ async function loadLibrary(select) {
   $("drop-material").innerHTML = "";
   for (const [m, origin] of l.materials) {
     const tr = document.createElement("tr");
-    tr.innerHTML = `<td>${m.name}</td><td>${m.alpha.toExponential(3)}</td><td>${m.beta.toExponential(3)}</td><td>${m.gamma.toExponential(3)}</td><td>${m.sigma.toExponential(3)}</td><td>${origin}</td>`;
+    cells(tr, [m.name, m.alpha.toExponential(3), m.beta.toExponential(3), m.gamma.toExponential(3), m.sigma.toExponential(3), origin]);
     const td = document.createElement("td");
     const a = document.createElement("a");
     a.href = `/api/materials/${encodeURIComponent(m.name)}`;
@@ -605,17 +631,58 @@ async function loadLibrary(select) {
           await api(`/api/materials/${encodeURIComponent(m.name)}`, { method: "DELETE" });
           say(`deleted ${m.name}`);
           await loadLibrary();
-        } catch (e) { say(e.message, true); }
+        } catch (e) { say(e.message, !e.cancelled); }
       };
       td.append(" ", del);
     }
     tr.appendChild(td);
     body.appendChild(tr);
-    sel.insertAdjacentHTML("beforeend", `<option>${m.name}</option>`);
-    $("drop-material").insertAdjacentHTML("beforeend", `<option>${m.name}</option>`);
+    sel.add(new Option(m.name));
+    $("drop-material").add(new Option(m.name));
   }
   if ([...sel.options].some((o) => o.value === keep)) sel.value = keep;
   if ([...$("drop-material").options].some((o) => o.value === dropKeep)) $("drop-material").value = dropKeep;
+  showKept(l.files || []);
+}
+
+// Table cells from text (names come from the library: never parsed as HTML).
+function cells(tr, texts) {
+  for (const t of texts) {
+    const td = document.createElement("td");
+    td.textContent = t;
+    tr.appendChild(td);
+  }
+}
+
+// The statistics and grain files kept in the library: download or delete each.
+function showKept(files) {
+  const body = $("kept").querySelector("tbody");
+  body.innerHTML = "";
+  $("kept-empty").hidden = files.length > 0;
+  for (const f of files) {
+    const tr = document.createElement("tr");
+    cells(tr, [f.name, f.kind, f.summary, String(f.bytes), f.updated]);
+    const td = document.createElement("td");
+    const url = `/api/library/files/${f.kind}/${encodeURIComponent(f.name)}`;
+    const a = document.createElement("a");
+    a.href = url;
+    a.textContent = "download";
+    td.appendChild(a);
+    const del = document.createElement("button");
+    del.className = "small";
+    del.textContent = "delete";
+    del.onclick = async () => {
+      if (!confirm(`Delete the ${f.kind} file ${f.name} from the library?`)) return;
+      try {
+        await api(url, { method: "DELETE" });
+        say(`deleted ${f.kind} ${f.name}`);
+        await loadLibrary();
+      } catch (e) { say(e.message, true); }
+    };
+    td.append(" ", del);
+    tr.appendChild(td);
+    body.appendChild(tr);
+  }
 }
 
 function updateButtons() {
@@ -663,6 +730,17 @@ async function start() {
     } catch (err) { say(err.status === 409 ? `${err.message}: tick “replace” to overwrite it` : err.message, true); }
     e.target.value = "";
   };
+  $("keep-file").onchange = async (e) => {
+    const f = e.target.files[0];
+    if (!f) return;
+    const name = $("keep-name").value.trim() || f.name.replace(/(\.stats)?\.json$|\.grains$/i, "");
+    try {
+      const r = await api(`/api/library/files?name=${encodeURIComponent(name)}&replace=${$("keep-replace").checked}`, { method: "POST", body: f });
+      say(`kept ${r.kind} ${r.name}: ${r.summary}`);
+      await loadLibrary();
+    } catch (err) { say(err.status === 409 ? `${err.message}: tick “replace” to overwrite it` : err.message, true); }
+    e.target.value = "";
+  };
   $("open-sample").onclick = () => openRecording(post(`/api/samples/${encodeURIComponent($("sample").value)}`, {}));
   const upload = (file) => {
     if (file.size > info.max_upload_bytes) {
@@ -685,6 +763,7 @@ async function start() {
   $("stop").onclick = stop;
   $("solve").onclick = solveObject;
   $("shape-mode").onchange = loadSurface;
+  $("hear-mode").onclick = hearMode;
   const v = $("view");
   v.onmousedown = (e) => { view.drag = { x: e.offsetX, y: e.offsetY, yaw: view.yaw, pitch: view.pitch, moved: false }; };
   v.onmousemove = (e) => {
@@ -717,4 +796,4 @@ async function start() {
 }
 
 window.studio = { state, level, position, playing: () => audio.part, pick, view };
-start().catch((e) => say(e.message, true));
+start().catch((e) => say(e.message, !e.cancelled));

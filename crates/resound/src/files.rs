@@ -46,19 +46,30 @@ pub fn write_json_lines<T: Serialize>(path: &Path, items: &[T]) -> Result<()> {
 /// # Errors
 /// Unreadable, not a statistics file, inconsistent.
 pub fn load_stats(path: &Path) -> Result<ModeStatistics> {
-    let s: ModeStatistics = serde_json::from_str(&read_text(path)?)
-        .map_err(|e| invalid(format!("{}: not a statistics file: {e}", path.display())))?;
+    parse_stats(&read_text(path)?, &path.display().to_string())
+}
+
+/// Parses the text of a statistics file named `origin` (for messages), checking its
+/// dimensions as [`load_stats`] does.
+///
+/// # Errors
+/// Not a statistics file, inconsistent.
+pub fn parse_stats(text: &str, origin: &str) -> Result<ModeStatistics> {
+    let s: ModeStatistics = serde_json::from_str(text)
+        .map_err(|e| invalid(format!("{origin}: not a statistics file: {e}")))?;
     let dim = 3 * s.modes;
     if s.modes == 0 || s.mean.len() != dim || s.covariance.len() != dim * dim {
         return Err(invalid(format!(
-            "{}: inconsistent statistics ({} modes)",
-            path.display(),
+            "{origin}: inconsistent statistics ({} modes)",
             s.modes
         )));
     }
+    if s.mean.iter().chain(&s.covariance).any(|v| !v.is_finite()) {
+        return Err(invalid(format!("{origin}: non-finite statistics")));
+    }
     if let Some(t) = &s.transient {
         t.validate()
-            .map_err(|e| invalid(format!("{}: {e}", path.display())))?;
+            .map_err(|e| invalid(format!("{origin}: {e}")))?;
     }
     Ok(s)
 }

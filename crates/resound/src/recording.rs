@@ -44,6 +44,10 @@ pub struct AnalysisReport {
     pub elapsed_s: f64,
     /// The modes, by frequency; t = 0 at the onset.
     pub modes: Vec<DampedMode>,
+    /// How sure each mode is (parallel to `modes`): σ of f and d, the Cramér–Rao bound at the
+    /// measured noise; `null` where it is singular.
+    #[serde(default)]
+    pub sigma: Vec<Option<resound_core::damped::ModeSigma>>,
 }
 
 /// What conditioning did, in an [`AnalysisReport`].
@@ -85,6 +89,7 @@ impl AnalysisReport {
             warnings: res.warnings.clone(),
             elapsed_s: res.total_s,
             modes: res.modes.clone(),
+            sigma: res.sigma.clone(),
         }
     }
 }

@@ -513,6 +513,91 @@ pub fn source_modes(
     }
 }
 
+/// One mode of an object struck at a point, for listening ([`object_mode`]).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ObjectModeInfo {
+    /// The mode, counting from 1 in the model's order.
+    pub mode: usize,
+    /// Its frequency with the material, Hz.
+    pub freq_hz: f64,
+    /// Its damping with the material, 1/s.
+    pub damping_per_s: f64,
+    /// Its amplitude at the hit below the loudest mode's there, dB (a hit near one of its
+    /// nodal lines makes it quiet: the sound is normalized, this says how quiet).
+    pub level_db: f64,
+    /// The note of a snapped hit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub note: Option<String>,
+}
+
+/// Mode `k` (counting from 1) of [`StrikeSource::Object`] alone, as the material makes it sound
+/// at the hit: `duration_s` at `sample_rate_hz`, normalized to
+/// [`crate::recording::ONE_MODE_PEAK`] (its level among the others is in the info).
+///
+/// # Errors
+/// Not an object source; no mode `k`; a mode the material over-damps or puts at or above the
+/// Nyquist frequency; a mode with no motion at the hit (a node); what loading the object and
+/// the material can raise.
+pub fn object_mode(
+    source: &StrikeSource,
+    k: usize,
+    duration_s: f64,
+    sample_rate_hz: u32,
+) -> Result<(Vec<f32>, ObjectModeInfo)> {
+    if !(duration_s > 0.0 && duration_s <= 60.0) {
+        return Err(invalid(format!(
+            "the duration must be in (0, 60] s, got {duration_s}"
+        )));
+    }
+    let (material, model, hit, note) = load_struck_object(source, &|_| {})?;
+    let n = model.eigenvalues.len();
+    if k == 0 || k > n {
+        return Err(invalid(format!(
+            "no mode {k}: the model has {n} (counting from 1)"
+        )));
+    }
+    let fs = f64::from(sample_rate_hz);
+    let all = material.modes_indexed(&model.eigenvalues, &hit.gains, model.gamma0(), 0.5 * fs);
+    let Some(m) = all.iter().find(|(i, _)| *i == k - 1).map(|(_, m)| *m) else {
+        return Err(invalid(format!(
+            "mode {k} does not sound at {sample_rate_hz} Hz with {}: it is over-damped or at or above the Nyquist frequency",
+            material.name
+        )));
+    };
+    let loudest = all.iter().map(|(_, m)| m.amplitude).fold(0.0, f64::max);
+    if !(m.amplitude > 0.0 && loudest > 0.0) {
+        return Err(invalid(format!(
+            "mode {k} does not move at this hit (a node): pick another point"
+        )));
+    }
+    let x = resound_core::damped::synthesize(
+        &[DampedMode {
+            amplitude: 1.0,
+            ..m
+        }],
+        fs,
+        (duration_s * fs).round().max(1.0) as usize,
+    );
+    let peak = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    if !(peak > 0.0 && peak.is_finite()) {
+        return Err(invalid(format!("mode {k} is silent over {duration_s} s")));
+    }
+    let samples = x
+        .iter()
+        .map(|v| (crate::recording::ONE_MODE_PEAK * v / peak) as f32)
+        .collect();
+    Ok((
+        samples,
+        ObjectModeInfo {
+            mode: k,
+            freq_hz: m.freq_hz,
+            damping_per_s: m.damping_per_s,
+            level_db: 20.0 * (m.amplitude / loudest).log10(),
+            note,
+        },
+    ))
+}
+
 /// The material, model and hit of [`StrikeSource::Object`] (nothing for the other sources),
 /// with the note of a snapped hit.
 fn load_struck_object(

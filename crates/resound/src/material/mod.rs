@@ -2,7 +2,9 @@
 //! (Ren §5, with the §6.1 residual) in [`estimate_material`] and its kin.
 
 mod estimation;
+mod kept_files;
 pub use estimation::*;
+pub use kept_files::*;
 
 use crate::error::{invalid, Error, Result};
 use resound_core::{Material, SoundMaterial};
@@ -184,16 +186,28 @@ pub fn listing_line(m: &SoundMaterial, origin: Origin) -> String {
 pub struct Listing {
     /// Every material a name can reach, by name, with its origin.
     pub materials: Vec<(SoundMaterial, Origin)>,
+    /// The statistics and grain dictionaries kept beside them ([`store_file`]).
+    pub files: Vec<resound_io::library::LibraryFile>,
     /// Why only the built-ins are listed (no library file yet).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub note: Option<String>,
 }
 
 impl std::fmt::Display for Listing {
-    /// One [`listing_line`] per material.
+    /// One [`listing_line`] per material, then one line per kept file.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         for (m, origin) in &self.materials {
             writeln!(f, "{}", listing_line(m, *origin))?;
+        }
+        for k in &self.files {
+            writeln!(
+                f,
+                "{:<16} {:<10} {} ({} bytes)",
+                k.name,
+                k.kind.name(),
+                k.summary,
+                k.bytes
+            )?;
         }
         Ok(())
     }
@@ -218,6 +232,11 @@ pub fn list_library(path: Option<&Path>) -> Result<Listing> {
     });
     Ok(Listing {
         materials: list_materials(lib.as_ref())?,
+        files: lib
+            .as_ref()
+            .map(Library::files)
+            .transpose()?
+            .unwrap_or_default(),
         note,
     })
 }
