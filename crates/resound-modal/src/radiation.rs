@@ -514,7 +514,13 @@ fn equivalent_sources(
         .iter()
         .filter_map(|&v| {
             let (x, n) = (vertices[v], normals[v]);
-            [2.0, 1.4, 1.0, 0.7, 0.5, 0.35].iter().find_map(|&f| {
+            // The shallow depths are for thin walls (a 4 mm plate, a bowl): a source must stay
+            // nearer its own face than the opposite one.
+            [
+                2.0, 1.4, 1.0, 0.7, 0.5, 0.35, 0.25, 0.18, 0.12, 0.08, 0.05, 0.03,
+            ]
+            .iter()
+            .find_map(|&f| {
                 let depth = (f * spacing).min(0.3 * radius);
                 let s = [0, 1, 2].map(|c| x[c] - depth * n[c]);
                 let sp = resound_core::geometry::closest_surface_point(vertices, triangles, s)?;

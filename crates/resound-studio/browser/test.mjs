@@ -59,7 +59,14 @@ try {
   };
   const status = () => page.locator("#status").textContent();
   const waitStatus = async (re, timeout = 600000) => {
-    await page.waitForFunction((src) => new RegExp(src).test(document.getElementById("status").textContent), re.source, { timeout });
+    // Stops at a new error too, so a failed step says why at once instead of timing out (an
+    // error already shown when the wait starts is the previous step's).
+    const before = await status();
+    await page.waitForFunction(([src, was]) => {
+      const s = document.getElementById("status");
+      return new RegExp(src).test(s.textContent) || (s.className === "error" && s.textContent !== was);
+    }, [re.source, before], { timeout });
+    assert.match(await status(), re);
     const s = await page.locator("#status").getAttribute("class");
     assert.notEqual(s, "error", `status is an error: ${await status()}`);
   };
@@ -196,6 +203,20 @@ try {
   const pbox = await page.locator("#view").boundingBox();
   await page.locator("#view").click({ position: { x: pbox.width * 0.45, y: pbox.height * 0.45 } });
   const hit = (await page.evaluate(() => window.studio.state.hit)).map(Number);
+  // A second click, with "the microphone" chosen, puts the microphone 0.3 m out from the
+  // clicked face, outside the plate.
+  await page.check('input[name="click-sets"][value="mic"]');
+  await page.locator("#view").click({ position: { x: pbox.width * 0.55, y: pbox.height * 0.5 } });
+  await waitStatus(/^microphone at /);
+  const mic = await page.evaluate(() => {
+    const s = window.studio.state;
+    return { mic: s.mic, from: s.micFrom, bbox: s.surface.bbox_m };
+  });
+  assert.ok(Math.abs(Math.hypot(...mic.mic.map((x, c) => x - mic.from[c])) - 0.3) < 1e-9);
+  const inside = (q, e) => q.every((x, c) => x >= mic.bbox[0][c] - e && x <= mic.bbox[1][c] + e);
+  assert.ok(inside(mic.from, 1e-9) && !inside(mic.mic, 0.25), `microphone ${mic.mic} from ${mic.from}`);
+  await page.check('input[name="click-sets"][value="hit"]');
+  const micArg = (await page.inputValue("#mic")).trim();
   await page.selectOption("#audition-material", "studio-ramp");
   await page.click("#render");
   await waitStatus(/^rendered studio-ramp/);
@@ -220,7 +241,7 @@ try {
   writeFileSync(model, Buffer.from(await fetchBytes(`/api/objects/${ids[0]}/model.rmodal`)));
   const cli = join(work, "cli.wav");
   execFileSync(bin, ["synth", "--material", "studio-ramp", "--library", library, "--mesh", model,
-    "--hit", hit.map(String).join(","), "--velocity", "1", "--duration", "2", "-o", cli], { stdio: "inherit" });
+    "--hit", hit.map(String).join(","), "--mic", micArg, "--velocity", "1", "--duration", "2", "-o", cli], { stdio: "inherit" });
   assert.ok(served.equals(readFileSync(cli)), "the studio's WAV differs from resound synth's");
   step("the served WAV equals resound synth's byte for byte");
 
@@ -254,6 +275,18 @@ try {
   await page.waitForFunction(() => window.studio.position() > 0.1, null, { timeout: 10000 });
   await page.locator("#scene-step").screenshot({ path: join(shots, "5-scene.png") });
   step("screenshot 5-scene.png");
+
+  // Every download the page offers is served, with the type its name says.
+  const links = await page.evaluate(() => [...document.querySelectorAll("a[href^='/api/']")].map((a) => a.getAttribute("href")));
+  assert.ok(links.length >= 10, `only ${links.length} download links`);
+  const types = { wav: "audio/wav", png: "image/png", rmodal: "application/octet-stream", json: "application/json", grains: "application/octet-stream" };
+  for (const href of links) {
+    const got = await page.evaluate(async (h) => { const r = await fetch(h); return { ok: r.ok, type: r.headers.get("content-type"), size: (await r.arrayBuffer()).byteLength }; }, href);
+    assert.ok(got.ok && got.size > 0, `${href}: ${JSON.stringify(got)}`);
+    const ext = href.split("?")[0].split(".").pop();
+    if (types[ext]) assert.ok(got.type.startsWith(types[ext]), `${href} is ${got.type}`);
+  }
+  step(`${links.length} download links served`);
 
   assert.deepEqual(problems, [], problems.join("\n"));
   step(`passed (page interactive in ${ready} ms)`);

@@ -20,6 +20,12 @@ function sayDone(msg, ...lists) {
   $("status").className = "warn";
 }
 
+// A picture and its PNG download link.
+function showImage(id, url) {
+  $(id).src = url;
+  $(`${id}-png`).href = url;
+}
+
 async function api(path, opts = {}) {
   const res = await fetch(path, opts);
   const type = res.headers.get("content-type") || "";
@@ -174,7 +180,8 @@ async function showRecording(v) {
   // The conditioning and onset lines; the whole text (with its mode table) below, folded.
   $("conditioning").textContent = v.text.split("\n").filter((l) => !/^\s*(#|\d+\s)/.test(l)).join("\n").trim();
   $("analysis-text").textContent = v.text;
-  $("spectrogram").src = `/api/recordings/${v.id}/plot.png?strike=${r.strike}`;
+  showImage("spectrogram", `/api/recordings/${v.id}/plot.png?strike=${r.strike}`);
+  for (const part of ["recording", "modes", "residual"]) $(`dl-${part}`).href = `/api/recordings/${v.id}/part/${part}.wav`;
   const body = $("modes").querySelector("tbody");
   body.innerHTML = "";
   const top = Math.max(...r.modes.map((m) => m.amplitude));
@@ -284,6 +291,8 @@ async function solveObject() {
     $("object").hidden = false;
     $("obj-title").textContent = `${what} · ${r.report.modes.length} modes from ${r.report.modes[0].freq_hz.toFixed(0)} Hz · ${r.report.surface_vertices} surface vertices`;
     $("obj-modes").textContent = r.text.split("\n").slice(0, 3).join(" · ");
+    $("dl-model").href = `/api/objects/${r.object}/model.rmodal`;
+    state.micFrom = null;
     const sel = $("shape-mode");
     sel.innerHTML = '<option value="">none</option>';
     r.report.modes.forEach((m, i) => sel.insertAdjacentHTML("beforeend", `<option value="${i + 1}">${i + 1}: ${m.freq_hz.toFixed(0)} Hz</option>`));
@@ -390,6 +399,26 @@ function drawObject() {
     g.arc(w / 2 + r[0] * scale, h / 2 - r[2] * scale, 5, 0, 2 * Math.PI);
     g.fill();
   }
+  if (state.mic && state.micFrom) {
+    // The microphone is usually off the picture: a line from the clicked point towards it,
+    // ending in a dot at the microphone or at the picture's edge.
+    const at = (q) => { const r = rotate([q[0] - centre[0], q[1] - centre[1], q[2] - centre[2]]); return [w / 2 + r[0] * scale, h / 2 - r[2] * scale]; };
+    const a = at(state.micFrom), b = at(state.mic);
+    let t = 1;
+    for (const [x0, dx, lim] of [[a[0], b[0] - a[0], w], [a[1], b[1] - a[1], h]]) {
+      if (x0 + t * dx > lim - 8) t = Math.min(t, (lim - 8 - x0) / dx);
+      if (x0 + t * dx < 8) t = Math.min(t, (8 - x0) / dx);
+    }
+    t = Math.max(0, t);
+    const e = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+    g.strokeStyle = "#2f6fd6";
+    g.lineWidth = 2;
+    g.beginPath(); g.moveTo(a[0], a[1]); g.lineTo(e[0], e[1]); g.stroke();
+    g.lineWidth = 1;
+    g.fillStyle = "#2f6fd6";
+    g.beginPath(); g.arc(e[0], e[1], 5, 0, 2 * Math.PI); g.fill();
+    g.fillText(t < 1 ? "mic →" : "mic", e[0] + 8, e[1] - 6);
+  }
 }
 
 function pick(px, py) {
@@ -406,11 +435,31 @@ function pick(px, py) {
   if (!found) return null;
   const s = state.surface;
   const p = [0, 0, 0];
+  const corner = [];
   for (let j = 0; j < 3; j++) {
     const vi = s.triangles[found.k + j];
+    corner.push([0, 1, 2].map((c) => s.vertices[3 * vi + c]));
     for (let c = 0; c < 3; c++) p[c] += found.l[j] * s.vertices[3 * vi + c];
   }
-  return p;
+  // The face's normal, turned towards the viewer (the side that was clicked).
+  const e1 = [0, 1, 2].map((c) => corner[1][c] - corner[0][c]);
+  const e2 = [0, 1, 2].map((c) => corner[2][c] - corner[0][c]);
+  let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+  const len = Math.hypot(...n) || 1;
+  n = n.map((x) => x / len);
+  if (rotate(n)[1] > 0) n = n.map((x) => -x);
+  return { p, n };
+}
+
+// A click with "the microphone" chosen: the point that far out along the clicked face's normal.
+function setMic(p, n) {
+  const d = Number($("mic-distance").value);
+  if (!(d > 0)) { say("the microphone's distance is a positive number of metres", true); return; }
+  state.mic = p.map((x, c) => x + d * n[c]);
+  state.micFrom = p;
+  $("mic").value = state.mic.map((x) => x.toFixed(4)).join(",");
+  drawObject();
+  say(`microphone at ${$("mic").value} m, ${d} m out from the surface`);
 }
 
 function setHit(p) {
@@ -431,7 +480,7 @@ async function estimate() {
     state.estimate = r;
     $("estimated").hidden = false;
     $("estimate-report").textContent = [r.text, ...r.notes.map((n) => `note: ${n}`)].join("\n");
-    $("estimate-plot").src = `/api/estimates/${r.estimate}/plot.png`;
+    showImage("estimate-plot", `/api/estimates/${r.estimate}/plot.png`);
     $("save-name").value = r.material.name;
     $("material-download").href = `/api/estimates/${r.estimate}/material.json`;
     sayDone(`estimated in ${done.elapsed_s.toFixed(1)} s`, done.warnings, r.info.warnings);
@@ -501,8 +550,8 @@ function addRenderRow(item) {
       const d = await api(`/api/compare?recording=${state.recording.id}&render=${item.id}`);
       tr.querySelector(".distance").textContent = d.distance.toFixed(3);
       $("comparison").hidden = false;
-      $("cmp-recording").src = `/api/recordings/${state.recording.id}/plot.png?strike=${state.recording.report.strike}`;
-      $("cmp-render").src = `/api/renders/${item.id}/plot.png`;
+      showImage("cmp-recording", `/api/recordings/${state.recording.id}/plot.png?strike=${state.recording.report.strike}`);
+      showImage("cmp-render", `/api/renders/${item.id}/plot.png`);
       $("cmp-render-caption").textContent = `render ${item.id}: ${item.material} on ${item.object} (log-mel distance ${d.distance.toFixed(3)})`;
     } catch (e) { say(e.message, !e.cancelled); }
   };
@@ -779,9 +828,12 @@ async function start() {
     view.drag = null;
     if (moved) return;
     const sx = v.width / v.clientWidth;
-    const p = pick(e.offsetX * sx, e.offsetY * sx);
-    if (p) setHit(p);
+    const hit = pick(e.offsetX * sx, e.offsetY * sx);
+    if (!hit) return;
+    if (document.querySelector('input[name="click-sets"]:checked').value === "mic") setMic(hit.p, hit.n);
+    else setHit(hit.p);
   };
+  $("mic").onchange = () => { state.micFrom = null; drawObject(); };
   $("hit").onchange = () => {
     const p = $("hit").value.split(",").map(Number);
     if (p.length === 3 && p.every(Number.isFinite)) setHit(p);
