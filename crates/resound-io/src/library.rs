@@ -13,7 +13,7 @@
 
 use crate::{atomic::write_atomic, io_err, parse_err, Result};
 use resound_core::SoundMaterial;
-use rusqlite::{params, Connection, OptionalExtension};
+use rusqlite::{params, Connection, OptionalExtension, TransactionBehavior};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -115,7 +115,13 @@ impl Library {
             std::fs::create_dir_all(dir).map_err(|e| io_err(path, e))?;
         }
         let mut conn = Connection::open(path).map_err(|e| db_err(path, e))?;
-        let tx = conn.transaction().map_err(|e| db_err(path, e))?;
+        // Writers wait for each other (up to 30 s) instead of failing with "database is locked".
+        conn.busy_timeout(std::time::Duration::from_secs(30))
+            .map_err(|e| db_err(path, e))?;
+        // Immediate: two processes creating one library never both seed it.
+        let tx = conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(|e| db_err(path, e))?;
         let existed = has_materials_table(&tx, path)?;
         if !existed {
             tx.execute(
@@ -214,6 +220,83 @@ impl Library {
         tx.commit().map_err(|e| db_err(&self.path, e))
     }
 
+    /// Inserts `m` (validated first), replacing an entry of its name only when `replace`:
+    /// returns `false` (and changes nothing) when one exists and `replace` is not set. The
+    /// check and the insert are one immediate transaction, so of several writers of a new name
+    /// (threads or processes) exactly one stores it and the others hear it exists.
+    pub fn insert(&mut self, m: &SoundMaterial, replace: bool) -> Result<bool> {
+        m.validate().map_err(|e| parse_err(&self.path, e))?;
+        let json = serde_json::to_string(m).map_err(|e| parse_err(&self.path, e.to_string()))?;
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(|e| db_err(&self.path, e))?;
+        let exists = tx
+            .query_row(
+                "SELECT count(*) FROM materials WHERE name = ?1",
+                params![m.name],
+                |r| r.get::<_, i64>(0),
+            )
+            .map_err(|e| db_err(&self.path, e))?
+            > 0;
+        if exists && !replace {
+            return Ok(false);
+        }
+        tx.execute(
+            "INSERT OR REPLACE INTO materials (name, json, updated) VALUES (?1, ?2, datetime('now'))",
+            params![m.name, json],
+        )
+        .map_err(|e| db_err(&self.path, e))?;
+        tx.commit().map_err(|e| db_err(&self.path, e))?;
+        Ok(true)
+    }
+
+    /// Renames entry `from` to `to` in one immediate transaction: `Ok(None)` when there is no
+    /// `from`, `Ok(Some(false))` (nothing changed) when `to` exists and `replace` is not set.
+    pub fn rename(&mut self, from: &str, to: &str, replace: bool) -> Result<Option<bool>> {
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(|e| db_err(&self.path, e))?;
+        let json: Option<String> = tx
+            .query_row(
+                "SELECT json FROM materials WHERE name = ?1",
+                params![from],
+                |r| r.get(0),
+            )
+            .optional()
+            .map_err(|e| db_err(&self.path, e))?;
+        let Some(json) = json else { return Ok(None) };
+        if from == to {
+            return Ok(Some(true));
+        }
+        let taken = tx
+            .query_row(
+                "SELECT count(*) FROM materials WHERE name = ?1",
+                params![to],
+                |r| r.get::<_, i64>(0),
+            )
+            .map_err(|e| db_err(&self.path, e))?
+            > 0;
+        if taken && !replace {
+            return Ok(Some(false));
+        }
+        let mut m: SoundMaterial = serde_json::from_str(&json)
+            .map_err(|e| parse_err(&self.path, format!("material {from:?} is corrupt: {e}")))?;
+        m.name = to.to_string();
+        m.validate().map_err(|e| parse_err(&self.path, e))?;
+        let json = serde_json::to_string(&m).map_err(|e| parse_err(&self.path, e.to_string()))?;
+        tx.execute(
+            "INSERT OR REPLACE INTO materials (name, json, updated) VALUES (?1, ?2, datetime('now'))",
+            params![to, json],
+        )
+        .map_err(|e| db_err(&self.path, e))?;
+        tx.execute("DELETE FROM materials WHERE name = ?1", params![from])
+            .map_err(|e| db_err(&self.path, e))?;
+        tx.commit().map_err(|e| db_err(&self.path, e))?;
+        Ok(Some(true))
+    }
+
     /// Removes `name`; returns whether it existed.
     pub fn remove(&mut self, name: &str) -> Result<bool> {
         let tx = self.conn.transaction().map_err(|e| db_err(&self.path, e))?;
@@ -310,7 +393,10 @@ impl Library {
         data: &[u8],
         replace: bool,
     ) -> Result<bool> {
-        let tx = self.conn.transaction().map_err(|e| db_err(&self.path, e))?;
+        let tx = self
+            .conn
+            .transaction_with_behavior(TransactionBehavior::Immediate)
+            .map_err(|e| db_err(&self.path, e))?;
         tx.execute(FILES_TABLE, [])
             .map_err(|e| db_err(&self.path, e))?;
         let existed: bool = tx

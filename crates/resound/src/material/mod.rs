@@ -50,11 +50,12 @@ pub fn check_name_free(path: Option<&Path>, name: &str, replace: bool) -> Result
 /// # Errors
 /// [`Error::Exists`]; a library that cannot be opened or written.
 pub fn store_material(path: Option<&Path>, material: &SoundMaterial, replace: bool) -> Result<()> {
-    let mut lib = open_library(path)?;
-    if !replace && lib.get(&material.name)?.is_some() {
+    // The check and the insert are one transaction: of concurrent writers of a new name
+    // exactly one stores it.
+    if !open_library(path)?.insert(material, replace)? {
         return Err(Error::Exists(material.name.clone()));
     }
-    Ok(lib.put(material)?)
+    Ok(())
 }
 
 /// The library at `path` (or the default one) for reading: `None` when it does not exist yet.
@@ -152,19 +153,12 @@ pub fn remove_material(path: Option<&Path>, name: &str) -> Result<()> {
 /// name; an unreadable library.
 pub fn rename_material(path: Option<&Path>, from: &str, to: &str, replace: bool) -> Result<()> {
     let missing = || Error::Missing(format!("no material {from:?} in the library"));
-    let mut lib = read_library(path)?.ok_or_else(missing)?;
-    let mut m = lib.get(from)?.ok_or_else(missing)?;
-    if from == to {
-        return Ok(());
+    read_library(path)?.ok_or_else(missing)?;
+    match open_library(path)?.rename(from, to, replace)? {
+        None => Err(missing()),
+        Some(false) => Err(Error::Exists(to.to_string())),
+        Some(true) => Ok(()),
     }
-    if !replace && lib.get(to)?.is_some() {
-        return Err(Error::Exists(to.to_string()));
-    }
-    m.name = to.to_string();
-    lib = open_library(path)?;
-    lib.put(&m)?;
-    lib.remove(from)?;
-    Ok(())
 }
 
 /// One line of a material listing (`materials list`): name, the four constants and the origin.
@@ -359,4 +353,89 @@ pub fn resolve_material(
     };
     m.validate().map_err(invalid)?;
     Ok(m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Writers started at once against one library (`Library::insert`, what `store_material`
+    /// calls), each storing its own material under one new name without `replace`: exactly
+    /// one is stored, every other hears it exists (as it
+    /// would run one after another), and what is stored is the winner's. Likewise two renames
+    /// onto one free name.
+    #[test]
+    fn concurrent_writers_of_one_name_never_both_win() {
+        let dir = tempfile::tempdir().unwrap();
+        let lib = dir.path().join("lib.sqlite");
+        let writers = 6;
+        open_library(Some(&lib)).unwrap();
+        // Every writer has its connection open before any writes (a barrier), so their
+        // check-then-insert steps overlap as far as the library lets them.
+        let barrier = std::sync::Barrier::new(writers);
+        let results: Vec<(f64, Result<()>)> = std::thread::scope(|scope| {
+            let handles: Vec<_> = (0..writers)
+                .map(|i| {
+                    let (lib, barrier) = (lib.clone(), &barrier);
+                    scope.spawn(move || {
+                        let mut m = SoundMaterial::builtin_named("wood").unwrap();
+                        m.name = "same".into();
+                        m.alpha = 1.0 + i as f64;
+                        let mut l = open_library(Some(&lib)).unwrap();
+                        barrier.wait();
+                        let r = match l.insert(&m, false) {
+                            Ok(true) => Ok(()),
+                            Ok(false) => Err(Error::Exists(m.name.clone())),
+                            Err(e) => Err(e.into()),
+                        };
+                        (m.alpha, r)
+                    })
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        let won: Vec<f64> = results
+            .iter()
+            .filter(|(_, r)| r.is_ok())
+            .map(|(a, _)| *a)
+            .collect();
+        assert_eq!(won.len(), 1, "{results:?}");
+        for (_, r) in &results {
+            if let Err(e) = r {
+                assert!(matches!(e, Error::Exists(_)), "{e}");
+            }
+        }
+        let l = read_library(Some(&lib)).unwrap().unwrap();
+        assert_eq!(l.get("same").unwrap().unwrap().alpha, won[0]);
+
+        // Two entries renamed onto one free name at once: one rename lands, the other is
+        // refused, and both materials still exist under some name.
+        for n in ["a", "b"] {
+            let mut m = SoundMaterial::builtin_named("glass").unwrap();
+            m.name = n.into();
+            store_material(Some(&lib), &m, false).unwrap();
+        }
+        let renames: Vec<Result<()>> = std::thread::scope(|scope| {
+            let hs: Vec<_> = ["a", "b"]
+                .into_iter()
+                .map(|from| {
+                    let lib = lib.clone();
+                    scope.spawn(move || rename_material(Some(&lib), from, "c", false))
+                })
+                .collect();
+            hs.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        assert_eq!(
+            renames.iter().filter(|r| r.is_ok()).count(),
+            1,
+            "{renames:?}"
+        );
+        let names = read_library(Some(&lib)).unwrap().unwrap().names().unwrap();
+        assert!(names.contains(&"c".to_string()));
+        assert_eq!(
+            names.iter().filter(|n| *n == "a" || *n == "b").count(),
+            1,
+            "{names:?}"
+        );
+    }
 }
