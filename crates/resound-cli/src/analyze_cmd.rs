@@ -2,15 +2,24 @@
 
 use anyhow::Result;
 use clap::Args;
+use resound::joint::analyze_joint;
 use resound::recording::{analyze_file, AnalysisReport};
 use resound::signal::AnalyzeParams;
-use std::path::PathBuf;
+use std::fmt::Display;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `analyze`.
 #[derive(Args, Debug)]
 pub struct AnalyzeArgs {
-    /// Audio file: WAV (PCM 8/16/24/32, float 32/64), FLAC, OGG Vorbis or MP3.
-    pub audio: PathBuf,
+    /// Audio file: WAV (PCM 8/16/24/32, float 32/64), FLAC, OGG Vorbis or MP3. Several (the
+    /// microphones or strikes of one object) need --joint.
+    #[arg(required = true, num_args = 1..)]
+    pub audio: Vec<PathBuf>,
+    /// Fit one set of poles (f, d) shared by every take (files, and with --every-channel /
+    /// --every-strike their channels and strikes), each take with its own amplitudes; poles
+    /// whose takes disagree beyond their σ are flagged.
+    #[arg(long, conflicts_with = "plot")]
+    pub joint: bool,
     /// Write the JSON result to this file ("-" for stdout).
     #[arg(long, value_name = "OUT.json")]
     pub json: Option<PathBuf>,
@@ -40,7 +49,7 @@ pub struct AnalyzeArgs {
 
 /// Runs `analyze`.
 pub fn run(a: AnalyzeArgs) -> Result<()> {
-    crate::util::check_paths([&a.audio], a.json.iter().chain(&a.plot))?;
+    crate::util::check_paths(&a.audio, a.json.iter().chain(&a.plot))?;
     let params = AnalyzeParams {
         max_modes: a.max_modes,
         min_db: a.min_db,
@@ -50,19 +59,36 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         refine: !a.stage1_only,
         ..AnalyzeParams::default()
     };
-    let (rec, res) = analyze_file(&a.audio, &a.take.recording(), &params)?;
+    let select = a.take.selection();
+    if a.joint {
+        let rec = a.take.recording();
+        let (out, _) = crate::util::with_bar("analyze", |cb| {
+            analyze_joint(&a.audio, &rec, &params, select, &Default::default(), cb)
+        })?;
+        crate::util::warn_all(&out.warnings);
+        return emit(a.json.as_deref(), &out, &out);
+    }
+    anyhow::ensure!(
+        a.audio.len() == 1 && !select.every_channel && !select.every_strike,
+        "several takes (files, --every-channel, --every-strike) are analysed together with --joint"
+    );
+    let (rec, res) = analyze_file(&a.audio[0], &a.take.recording(), &params)?;
     crate::util::warn_all(&res.warnings);
-    let out = AnalysisReport::new(&a.audio.display().to_string(), &rec.codec, &res);
-    match &a.json {
-        Some(p) if p.as_os_str() == "-" => crate::util::print_json(&out)?,
-        Some(p) => resound::files::write_json(p, &out)?,
+    let out = AnalysisReport::new(&a.audio[0].display().to_string(), &rec.codec, &res);
+    if let Some(p) = &a.plot {
+        resound::plot::analysis_png(p, &res, &a.audio[0].display().to_string())?;
+    }
+    emit(a.json.as_deref(), &out, &res)
+}
+
+/// Writes the report as JSON where asked ("-": stdout) and prints the table unless stdout
+/// holds the JSON.
+fn emit(json: Option<&Path>, out: &impl serde::Serialize, table: &impl Display) -> Result<()> {
+    match json {
+        Some(p) if p.as_os_str() == "-" => return crate::util::print_json(out),
+        Some(p) => resound::files::write_json(p, out)?,
         None => {}
     }
-    if let Some(p) = &a.plot {
-        resound::plot::analysis_png(p, &res, &a.audio.display().to_string())?;
-    }
-    if a.json.as_ref().is_none_or(|p| p.as_os_str() != "-") {
-        print!("{res}");
-    }
+    print!("{table}");
     Ok(())
 }

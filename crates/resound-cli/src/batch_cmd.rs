@@ -39,10 +39,7 @@ pub fn run(a: BatchArgs) -> Result<()> {
         library: a.library.clone(),
         cache_dir: a.cache.clone(),
     };
-    let pb = crate::util::Bar::new("batch");
-    let info = run_batch(&a.jobs, &params, &pb.callback());
-    pb.finish_and_clear();
-    let info = info?;
+    let info = crate::util::with_bar("batch", |cb| run_batch(&a.jobs, &params, cb))?;
     warn_all(&info.warnings);
     if a.json {
         print_json(&info)?;

@@ -39,9 +39,5 @@ pub fn run(a: CompareArgs) -> Result<()> {
         ..LogMelParams::default()
     };
     let d = compare_files(&a.a, a.channel_a, &a.b, a.channel_b, &params)?;
-    if a.json {
-        return crate::util::print_json(&d);
-    }
-    print!("{d}");
-    Ok(())
+    crate::util::show(a.json, &d)
 }

@@ -1,6 +1,6 @@
 //! `resound estimate` and `resound materials`: material estimation and the material library.
 
-use crate::util::{parse_vec3, print_json, warn_all, Bar};
+use crate::util::{parse_vec3, warn_all};
 use anyhow::Result;
 use clap::{Args, Subcommand};
 use resound::io::library::{read_material, write_material};
@@ -9,7 +9,6 @@ use resound::material::{
     remove_material, store_material, EstimateFiles, EstimateMaterialParams,
 };
 use resound::object::ObjectParams;
-use resound::recording::TakeSelection;
 use resound::signal::AnalyzeParams;
 use std::path::{Path, PathBuf};
 
@@ -20,14 +19,6 @@ pub struct EstimateArgs {
     /// are combined into one estimate: α, β, γ shared, each recording with its own σ.
     #[arg(required = true, num_args = 1..)]
     pub audio: Vec<PathBuf>,
-    /// Use every strike of each file as a recording of its own (strikes that give no modes are
-    /// skipped with a note).
-    #[arg(long, conflicts_with = "strike")]
-    pub every_strike: bool,
-    /// Use every channel of each file as a recording of its own (the microphones of a
-    /// multichannel recording).
-    #[arg(long, conflicts_with = "channel")]
-    pub every_channel: bool,
     /// The object: a closed surface or tet mesh, or a saved modal model (.rmodal).
     #[arg(long)]
     pub mesh: PathBuf,
@@ -99,10 +90,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             strike: a.take.strike_index()?,
             ..AnalyzeParams::default()
         },
-        select: TakeSelection {
-            every_strike: a.every_strike,
-            every_channel: a.every_channel,
-        },
+        select: a.take.selection(),
         object: a.mesh.clone(),
         object_params: ObjectParams::new(a.scale, a.modes, &a.reference_material)?,
         hit_m: parse_vec3(&a.hit)?,
@@ -114,10 +102,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             ..Default::default()
         },
     };
-    let pb = Bar::new("estimate");
-    let out = estimate_files(&job, &pb.callback());
-    pb.finish_and_clear();
-    let out = out?;
+    let out = crate::util::with_bar("estimate", |cb| estimate_files(&job, cb))?;
     crate::util::notes(&out.notes);
     let (material, info) = (&out.material, &out.info);
     warn_all(&info.warnings);
@@ -133,11 +118,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     if a.name.is_some() {
         store_material(a.library.as_deref(), material, a.force)?;
     }
-    if a.json {
-        return print_json(&info);
-    }
-    print!("{info}");
-    Ok(())
+    crate::util::show(a.json, &info)
 }
 
 /// `resound materials …`.

@@ -105,10 +105,9 @@ pub fn run(c: GrainsCmd) -> Result<()> {
             params.segment.min_db = a.min_db;
             params.pattern.peaks_per_part = a.peaks;
             params.pattern.min_corr = a.min_corr;
-            let pb = crate::util::Bar::new("grains");
-            let made = analyze_to_file(&recs, fs, &params, a.prune, &a.output, &pb.callback());
-            pb.finish_and_clear();
-            let made = made?;
+            let made = crate::util::with_bar("grains", |cb| {
+                analyze_to_file(&recs, fs, &params, a.prune, &a.output, cb)
+            })?;
             if a.json {
                 crate::util::print_json(&made)?;
             } else {

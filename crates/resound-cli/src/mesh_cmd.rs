@@ -65,11 +65,7 @@ pub fn run(c: MeshCmd) -> Result<()> {
         }
         MeshCmd::Check(a) => {
             let r = check_mesh(&a.mesh, a.scale, a.max_hole_edges)?;
-            if a.json {
-                crate::util::print_json(&r)?;
-            } else {
-                println!("{r}");
-            }
+            crate::util::show(a.json, &r)?;
         }
     }
     Ok(())

@@ -1,6 +1,6 @@
 //! `resound modal` and `resound model`.
 
-use crate::util::{parse_vec3, print_json, warn_all, Bar};
+use crate::util::{parse_vec3, print_json, warn_all};
 use anyhow::Result;
 use clap::Args;
 use resound::core::Material;
@@ -119,15 +119,12 @@ pub fn run(a: ModalArgs) -> Result<()> {
         hit_m: a.hit.as_deref().map(parse_vec3).transpose()?,
         export_matrices: a.export_matrices.clone(),
     };
-    let pb = Bar::new("modal");
-    let solved = solve_object(&job, &pb.callback());
-    pb.finish_and_clear();
     let SolveOutcome {
         model,
         report,
         repairs,
         ..
-    } = solved?;
+    } = crate::util::with_bar("modal", |cb| solve_object(&job, cb))?;
     warn_all(&report.warnings);
     for l in repairs {
         eprintln!("repaired: {l}");
@@ -135,11 +132,7 @@ pub fn run(a: ModalArgs) -> Result<()> {
     if let Some(out) = &a.output {
         model_file::save(out, &model)?;
     }
-    if a.json {
-        return print_json(&report);
-    }
-    print!("{report}");
-    Ok(())
+    crate::util::show(a.json, &report)
 }
 
 /// Runs `resound model`.

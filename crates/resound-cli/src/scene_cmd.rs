@@ -83,10 +83,7 @@ pub fn run(a: SceneArgs) -> Result<()> {
     let Some(output) = a.output.as_ref() else {
         anyhow::bail!("--output is needed");
     };
-    let pb = crate::util::Bar::new("scene");
-    let r = render_scene(&a.scene, &params, &pb.callback());
-    pb.finish_and_clear();
-    let r = r?;
+    let r = crate::util::with_bar("scene", |cb| render_scene(&a.scene, &params, cb))?;
     crate::util::warn_all(&r.summary.warnings);
     crate::util::notes(&r.summary.notes);
     let refs: Vec<&[f32]> = r.channels.iter().map(|c| c.as_slice()).collect();

@@ -68,10 +68,8 @@ pub struct ScrapeArgs {
 
 fn object_modes(a: &ScrapeArgs, fs: f64) -> Result<Vec<DampedMode>> {
     let source = a.object.source(a.seed, Default::default())?;
-    let pb = crate::util::Bar::new("modal");
-    let made = resound::strike::source_modes(&source, fs, &pb.callback());
-    pb.finish_and_clear();
-    let (modes, notes) = made?;
+    let (modes, notes) =
+        crate::util::with_bar("modal", |cb| resound::strike::source_modes(&source, fs, cb))?;
     crate::util::notes(&notes);
     Ok(modes)
 }

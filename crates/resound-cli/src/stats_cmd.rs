@@ -48,16 +48,9 @@ pub fn run(c: StatsCmd) -> Result<()> {
     match c {
         StatsCmd::Fit(a) => {
             crate::util::check_paths(&a.recordings, [&a.output])?;
-            let pb = crate::util::Bar::new("stats");
-            let s = resound::files::fit_stats(
-                &a.recordings,
-                &a.material,
-                a.modes,
-                a.highpass_hz,
-                &pb.callback(),
-            );
-            pb.finish_and_clear();
-            let s = s?;
+            let s = crate::util::with_bar("stats", |cb| {
+                resound::files::fit_stats(&a.recordings, &a.material, a.modes, a.highpass_hz, cb)
+            })?;
             resound::files::write_json(&a.output, &s)?;
             eprintln!(
                 "wrote {} ({} recordings, {} modes)",

@@ -88,10 +88,8 @@ pub fn run(a: SynthArgs) -> Result<()> {
         a.seed,
         resound::object::ObjectParams::new(a.scale, a.mesh_modes, &a.reference_material)?,
     )?;
-    let pb = crate::util::Bar::new("synth");
-    let made = render_strike_from(&source, &params, &pb.callback());
-    pb.finish_and_clear();
-    let (mut strike, notes) = made?;
+    let (mut strike, notes) =
+        crate::util::with_bar("synth", |cb| render_strike_from(&source, &params, cb))?;
     crate::util::notes(&notes);
     let level_note = resound::strike::level_for_file(&mut strike)?;
     crate::util::warn_all(&strike.info.warnings);

@@ -118,6 +118,14 @@ impl Bar {
     }
 }
 
+/// Runs `f` with a progress bar labelled `label` (removed afterwards).
+pub fn with_bar<T>(label: &str, f: impl FnOnce(resound::ProgressFn<'_>) -> T) -> T {
+    let pb = Bar::new(label);
+    let out = f(&pb.callback());
+    pb.finish_and_clear();
+    out
+}
+
 fn spinner_style() -> ProgressStyle {
     ProgressStyle::with_template("{spinner} {prefix} [{elapsed}] {msg}")
         .unwrap_or_else(|_| ProgressStyle::default_spinner())
@@ -153,7 +161,17 @@ pub fn notes<S: std::fmt::Display>(notes: &[S]) {
     }
 }
 
-/// Prints a report as pretty JSON on stdout.
+/// Prints a report: pretty JSON on stdout when `json`, else its table.
+pub fn show<T: Serialize + std::fmt::Display>(json: bool, v: &T) -> Result<()> {
+    if json {
+        return print_json(v);
+    }
+    let text = v.to_string();
+    print!("{text}{}", if text.ends_with('\n') { "" } else { "\n" });
+    Ok(())
+}
+
+/// Prints `v` as pretty JSON on stdout.
 pub fn print_json<T: Serialize>(v: &T) -> Result<()> {
     println!("{}", serde_json::to_string_pretty(v)?);
     Ok(())
@@ -190,6 +208,14 @@ pub struct TakeArgs {
     /// one (not clipped, not cut short by the next); the report says which and why.
     #[arg(long, value_name = "K")]
     pub strike: Option<usize>,
+    /// Use every strike of each file as a take of its own (strikes that give no modes are
+    /// skipped with a note).
+    #[arg(long, conflicts_with = "strike")]
+    pub every_strike: bool,
+    /// Use every channel of each file as a take of its own (the microphones of a
+    /// multichannel recording).
+    #[arg(long, conflicts_with = "channel")]
+    pub every_channel: bool,
 }
 
 impl TakeArgs {
@@ -198,6 +224,14 @@ impl TakeArgs {
         resound::recording::RecordingParams {
             channel: self.channel,
             resample_hz: self.resample_hz,
+        }
+    }
+
+    /// The library's take selection.
+    pub fn selection(&self) -> resound::recording::TakeSelection {
+        resound::recording::TakeSelection {
+            every_strike: self.every_strike,
+            every_channel: self.every_channel,
         }
     }
 

@@ -20,6 +20,7 @@ pub mod condition;
 pub mod crb;
 pub mod extract;
 pub mod filter;
+pub mod joint;
 pub mod onset;
 pub mod psycho;
 pub mod refine;

@@ -190,7 +190,7 @@ pub fn refine_modes(
 /// Replaces pairs of modes closer than the resolution of the window (or than a quarter of
 /// their line widths) by one mode carrying their summed complex amplitude. Returns whether any
 /// pair was merged.
-fn merge_duplicates(modes: &mut Vec<DampedMode>, window_s: f64) -> bool {
+pub(crate) fn merge_duplicates(modes: &mut Vec<DampedMode>, window_s: f64) -> bool {
     let mut merged = false;
     let mut i = 0;
     while i + 1 < modes.len() {
@@ -244,7 +244,11 @@ fn add_scaled(mode: &DampedMode, sample_rate_hz: f64, scale: f64, out: &mut [f64
 }
 
 /// Consecutive (by frequency) modes whose lines overlap form a cluster.
-fn clusters(seeds: &[Seed], duration_s: f64, max_cluster: usize) -> Vec<std::ops::Range<usize>> {
+pub(crate) fn clusters(
+    seeds: &[Seed],
+    duration_s: f64,
+    max_cluster: usize,
+) -> Vec<std::ops::Range<usize>> {
     let mut out = Vec::new();
     let mut start = 0;
     for i in 1..=seeds.len() {
@@ -273,9 +277,9 @@ fn clusters(seeds: &[Seed], duration_s: f64, max_cluster: usize) -> Vec<std::ops
 }
 
 /// Parameters per mode: f (Hz), d (1/s), u = a cos θ, v = a sin θ.
-const P: usize = 4;
+pub(crate) const P: usize = 4;
 
-fn to_params(modes: &[DampedMode]) -> Vec<f64> {
+pub(crate) fn to_params(modes: &[DampedMode]) -> Vec<f64> {
     modes
         .iter()
         .flat_map(|m| {
@@ -285,7 +289,7 @@ fn to_params(modes: &[DampedMode]) -> Vec<f64> {
         .collect()
 }
 
-fn from_params(p: &[f64]) -> Vec<DampedMode> {
+pub(crate) fn from_params(p: &[f64]) -> Vec<DampedMode> {
     p.chunks(P)
         .map(|q| {
             let (mut f, d, u, v) = (q[0], q[1], q[2], q[3]);
@@ -341,7 +345,7 @@ fn for_each_sample(p: &[f64], sample_rate_hz: f64, n: usize, mut visit: impl FnM
     }
 }
 
-fn cost(y: &[f64], p: &[f64], sample_rate_hz: f64) -> f64 {
+pub(crate) fn cost(y: &[f64], p: &[f64], sample_rate_hz: f64) -> f64 {
     let mut c = 0.0;
     for_each_sample(p, sample_rate_hz, y.len(), |i, v| {
         let mut m = 0.0;
@@ -355,7 +359,7 @@ fn cost(y: &[f64], p: &[f64], sample_rate_hz: f64) -> f64 {
 }
 
 /// Levenberg–Marquardt on `modes` against `y`; returns the iterations used.
-fn levenberg_marquardt(
+pub(crate) fn levenberg_marquardt(
     y: &[f64],
     sample_rate_hz: f64,
     modes: &mut Vec<DampedMode>,
@@ -369,45 +373,7 @@ fn levenberg_marquardt(
     let mut iterations = 0;
     for _ in 0..max_iterations {
         iterations += 1;
-        jtj.iter_mut().for_each(|v| *v = 0.0);
-        jtr.iter_mut().for_each(|v| *v = 0.0);
-        let mut c0 = 0.0;
-        // Jacobian rows go into a column-major block of BLOCK samples; JᵀJ and Jᵀr are then
-        // accumulated as contiguous dot products, which vectorise.
-        const BLOCK: usize = 256;
-        let mut jb = vec![0.0; BLOCK * np];
-        let mut rb = [0.0; BLOCK];
-        let mut fill = 0;
-        let flush = |jb: &[f64], rb: &[f64], len: usize, jtj: &mut [f64], jtr: &mut [f64]| {
-            for a in 0..np {
-                let ca = &jb[a * BLOCK..a * BLOCK + len];
-                jtr[a] += dot(ca, &rb[..len]);
-                for b in a..np {
-                    jtj[a * np + b] += dot(ca, &jb[b * BLOCK..b * BLOCK + len]);
-                }
-            }
-        };
-        for_each_sample(&p, sample_rate_hz, y.len(), |i, v| {
-            let mut m = 0.0;
-            for (j, q) in p.chunks(P).enumerate() {
-                let (ec, es, t) = (v[3 * j], v[3 * j + 1], v[3 * j + 2]);
-                let sj = q[2] * es + q[3] * ec;
-                m += sj;
-                jb[(P * j) * BLOCK + fill] = TAU * t * (q[2] * ec - q[3] * es);
-                jb[(P * j + 1) * BLOCK + fill] = -t * sj;
-                jb[(P * j + 2) * BLOCK + fill] = es;
-                jb[(P * j + 3) * BLOCK + fill] = ec;
-            }
-            let r = y[i] - m;
-            c0 += r * r;
-            rb[fill] = r;
-            fill += 1;
-            if fill == BLOCK {
-                flush(&jb, &rb, BLOCK, &mut jtj, &mut jtr);
-                fill = 0;
-            }
-        });
-        flush(&jb, &rb, fill, &mut jtj, &mut jtr);
+        let c0 = normal_equations(y, &p, sample_rate_hz, &mut jtj, &mut jtr);
         if !(c0 > 0.0) {
             break;
         }
@@ -471,6 +437,59 @@ fn levenberg_marquardt(
     }
     *modes = from_params(&p);
     iterations
+}
+
+/// The Gauss–Newton normal equations of the modes `p` (per mode f, d, u, v) against `y`:
+/// fills the upper triangle of `jtj` (`p.len()²`, row-major) and `jtr`, returns the cost
+/// `Σ r²`.
+pub(crate) fn normal_equations(
+    y: &[f64],
+    p: &[f64],
+    sample_rate_hz: f64,
+    jtj: &mut [f64],
+    jtr: &mut [f64],
+) -> f64 {
+    let np = p.len();
+    jtj.iter_mut().for_each(|v| *v = 0.0);
+    jtr.iter_mut().for_each(|v| *v = 0.0);
+    let mut c0 = 0.0;
+    // Jacobian rows go into a column-major block of BLOCK samples; JᵀJ and Jᵀr are then
+    // accumulated as contiguous dot products, which vectorise.
+    const BLOCK: usize = 256;
+    let mut jb = vec![0.0; BLOCK * np];
+    let mut rb = [0.0; BLOCK];
+    let mut fill = 0;
+    let flush = |jb: &[f64], rb: &[f64], len: usize, jtj: &mut [f64], jtr: &mut [f64]| {
+        for a in 0..np {
+            let ca = &jb[a * BLOCK..a * BLOCK + len];
+            jtr[a] += dot(ca, &rb[..len]);
+            for b in a..np {
+                jtj[a * np + b] += dot(ca, &jb[b * BLOCK..b * BLOCK + len]);
+            }
+        }
+    };
+    for_each_sample(p, sample_rate_hz, y.len(), |i, v| {
+        let mut m = 0.0;
+        for (j, q) in p.chunks(P).enumerate() {
+            let (ec, es, t) = (v[3 * j], v[3 * j + 1], v[3 * j + 2]);
+            let sj = q[2] * es + q[3] * ec;
+            m += sj;
+            jb[(P * j) * BLOCK + fill] = TAU * t * (q[2] * ec - q[3] * es);
+            jb[(P * j + 1) * BLOCK + fill] = -t * sj;
+            jb[(P * j + 2) * BLOCK + fill] = es;
+            jb[(P * j + 3) * BLOCK + fill] = ec;
+        }
+        let r = y[i] - m;
+        c0 += r * r;
+        rb[fill] = r;
+        fill += 1;
+        if fill == BLOCK {
+            flush(&jb, &rb, BLOCK, jtj, jtr);
+            fill = 0;
+        }
+    });
+    flush(&jb, &rb, fill, jtj, jtr);
+    c0
 }
 
 /// Dot product with four independent accumulators (vectorises).

@@ -50,6 +50,7 @@ pub mod demo;
 mod error;
 pub mod files;
 pub mod grain_files;
+pub mod joint;
 pub mod live;
 pub mod material;
 pub mod mesh;
