@@ -2028,7 +2028,7 @@ fn estimate_combines_microphones_and_files_into_one_material() {
         resound::io::WavFormat::Float32,
     )
     .unwrap();
-    let out = ok(&resound(
+    let run = resound(
         &[
             "estimate",
             "stereo.wav",
@@ -2042,7 +2042,11 @@ fn estimate_combines_microphones_and_files_into_one_material() {
             "--json",
         ],
         d,
-    ));
+    );
+    let out = ok(&run);
+    // The takes' poles are fitted jointly first (one f, d per mode for all three).
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(stderr.contains("fitted jointly"), "{stderr}");
     let v: Value = serde_json::from_str(&out).unwrap();
     let takes = v["takes"].as_array().unwrap();
     assert_eq!(takes.len(), 3, "{v}");
@@ -2343,4 +2347,82 @@ modes = 6
     // The second build loaded the transfers from the cache: the same sound.
     assert_eq!(first["peak"], second["peak"]);
     assert!(second["build_s"].as_f64().unwrap() < first["build_s"].as_f64().unwrap());
+}
+
+#[test]
+fn analyze_joint_shares_poles_between_files_and_refuses_mixed_rates() {
+    use resound::core::{damped::synthesize, DampedMode};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // One object (a 0.1 % pair and a single mode) heard by two microphones with different
+    // gains, one file at 48 kHz, the same at 44.1 kHz.
+    let take = |gains: [f64; 3], fs: f64| -> Vec<f32> {
+        let modes: Vec<DampedMode> = [(900.0, 4.0), (2000.0, 6.0), (2002.0, 7.0)]
+            .iter()
+            .zip(gains)
+            .map(|(&(f, dmp), g)| DampedMode::new(f, dmp, 0.3 * g))
+            .collect();
+        let mut x = vec![0.0f32; 2000];
+        x.extend(
+            synthesize(&modes, fs, fs as usize)
+                .iter()
+                .map(|&v| v as f32),
+        );
+        let mut s = 7u64;
+        x.iter_mut().for_each(|v| {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            *v += 1e-4 * ((s >> 40) as f32 / (1u64 << 24) as f32 - 0.5);
+        });
+        x
+    };
+    let wav = |name: &str, x: &[f32], fs: u32| {
+        resound::io::write_wav(&d.join(name), x, fs, resound::io::WavFormat::Float32).unwrap();
+    };
+    wav("a.wav", &take([1.0, 1.0, 0.3], 48000.0), 48000);
+    wav("b.wav", &take([0.6, 0.4, 1.0], 48000.0), 48000);
+    wav("c.wav", &take([0.6, 0.4, 1.0], 44100.0), 44100);
+    let out = ok(&resound(
+        &["analyze", "a.wav", "b.wav", "--joint", "--json", "-"],
+        d,
+    ));
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["takes"].as_array().unwrap().len(), 2, "{v}");
+    let modes = v["modes"].as_array().unwrap();
+    for (f, dmp) in [(900.0, 4.0), (2000.0, 6.0), (2002.0, 7.0)] {
+        let m = modes
+            .iter()
+            .find(|m| (m["freq_hz"].as_f64().unwrap() - f).abs() < 0.2)
+            .unwrap_or_else(|| panic!("{f} Hz missing: {v}"));
+        let got = m["damping_per_s"].as_f64().unwrap();
+        assert!((got / dmp - 1.0).abs() < 0.02, "{f} Hz: d {got}: {v}");
+        assert_eq!(m["heard_in"], 2, "{m}");
+        assert_eq!(m["disagree"], false, "{m}");
+    }
+    // Takes at two rates are refused with the way out; resampled, they fit.
+    let out = resound(&["analyze", "a.wav", "c.wav", "--joint"], d);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--resample-hz"),
+        "{err}"
+    );
+    ok(&resound(
+        &[
+            "analyze",
+            "a.wav",
+            "c.wav",
+            "--joint",
+            "--resample-hz",
+            "48000",
+        ],
+        d,
+    ));
+    // Several files without --joint, and --joint with --plot, are refused.
+    assert!(!resound(&["analyze", "a.wav", "b.wav"], d).status.success());
+    assert!(
+        !resound(&["analyze", "a.wav", "--joint", "--plot", "p.png"], d)
+            .status
+            .success()
+    );
 }

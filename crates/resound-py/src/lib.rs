@@ -144,6 +144,47 @@ fn analyze_file<'py>(
     Ok((modes_array(py, &report.modes)?, crate::report(py, &report)?))
 }
 
+/// Fits one set of poles shared by the takes of several files (their channels and strikes with
+/// `every_channel` / `every_strike`): the joint report dict (`analyze --joint --json`).
+#[pyfunction]
+#[pyo3(signature = (paths, channel=None, strike=None, every_channel=false, every_strike=false, resample_hz=None, max_modes=64, min_db=60.0))]
+#[allow(clippy::too_many_arguments)]
+fn analyze_joint<'py>(
+    py: Python<'py>,
+    paths: Vec<PathBuf>,
+    channel: Option<usize>,
+    strike: Option<usize>,
+    every_channel: bool,
+    every_strike: bool,
+    resample_hz: Option<u32>,
+    max_modes: usize,
+    min_db: f64,
+) -> PyResult<Bound<'py, PyAny>> {
+    let params = analyze_params(strike, max_modes, min_db)?;
+    let rec = resound::recording::RecordingParams {
+        channel,
+        resample_hz,
+    };
+    let select = resound::recording::TakeSelection {
+        every_strike,
+        every_channel,
+    };
+    let report = py
+        .detach(|| {
+            resound::joint::analyze_joint(
+                &paths,
+                &rec,
+                &params,
+                select,
+                &Default::default(),
+                &|_| {},
+            )
+            .map(|(r, _)| r)
+        })
+        .map_err(err)?;
+    crate::report(py, &report)
+}
+
 /// Analyses samples (float64, one channel, full scale 1): (modes (n, 4), report dict).
 #[pyfunction]
 #[pyo3(signature = (samples, sample_rate, strike=None, max_modes=64, min_db=60.0))]
@@ -485,6 +526,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<ModeStatistics>()?;
     m.add_function(wrap_pyfunction!(analyze_file, m)?)?;
     m.add_function(wrap_pyfunction!(analyze_array, m)?)?;
+    m.add_function(wrap_pyfunction!(analyze_joint, m)?)?;
     m.add_function(wrap_pyfunction!(get_material, m)?)?;
     m.add_function(wrap_pyfunction!(list_materials, m)?)?;
     m.add_function(wrap_pyfunction!(save_material, m)?)?;

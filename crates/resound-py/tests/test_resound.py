@@ -528,3 +528,31 @@ def test_statistics_fit_from_python_as_the_cli_and_pyimpact_tables_import(model,
     with pytest.raises(resound.ResoundError, match="no PyImpact tables"):
         resound.import_pyimpact(tmp_path / "empty" if (tmp_path / "empty").mkdir() is None
                                 else tmp_path)
+
+
+def test_joint_analysis_of_both_channels_shares_poles_and_matches_the_cli(tmp_path):
+    wav = ASSETS / "recordings/steel_nut_M4_2.wav"
+    takes, rep = resound.analyze_joint([wav], every_channel=True)
+    assert len(takes) == 2 == len(rep["takes"])
+    poles = {m["freq_hz"] for m in rep["modes"]}
+    for t in takes:
+        assert len(t) >= 5
+        # Every take's modes are the shared poles (only amplitudes and phases are its own).
+        assert set(t.freq_hz.tolist()) <= poles
+        assert np.all(np.diff(t.freq_hz) > 0)
+    both = [m for m in rep["modes"] if m["heard_in"] == 2]
+    assert len(both) >= 3
+    for m in both:
+        assert m["sigma"]["freq_hz"] > 0 and m["sigma"]["damping_per_s"] > 0
+        assert all(o is not None for o in m["own"])
+    out = cli("analyze", str(wav), "--joint", "--every-channel", "--json", "-", cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)
+    assert np.allclose([m["freq_hz"] for m in doc["modes"]],
+                       [m["freq_hz"] for m in rep["modes"]], rtol=1e-9)
+    with pytest.raises(TypeError, match="list of paths"):
+        resound.analyze_joint(wav)
+    with pytest.raises(TypeError, match="exclude"):
+        resound.analyze_joint([wav], channel=0, every_channel=True)
+    out = cli("analyze", str(wav), str(wav), cwd=tmp_path)
+    assert out.returncode == 2 and "--joint" in out.stderr

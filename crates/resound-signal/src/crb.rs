@@ -102,12 +102,81 @@ pub fn cramer_rao(
 /// How sure one analysed mode is: standard deviations of its frequency and damping.
 pub use resound_core::damped::ModeSigma;
 
+/// The noise level near each frequency, from what a fit leaves: the standard deviation of
+/// the white noise with the residual's mean power density within ±max(25 Hz, 2 %) of the
+/// frequency. Rolling, rumble and a model that misses part of a mode make the noise coloured;
+/// a bound at the broadband level would then be too tight where the residual is strong and
+/// too loose where it is weak.
+#[derive(Clone, Debug)]
+pub struct NoiseProfile {
+    /// Prefix sums of `|X_k|² / N` over the bins (white noise of variance σ² gives σ² a bin).
+    cumulative: Vec<f64>,
+    bin_hz: f64,
+    white_rms: f64,
+}
+
+impl NoiseProfile {
+    /// White noise of standard deviation `rms` at every frequency.
+    pub fn white(rms: f64) -> Self {
+        Self {
+            cumulative: Vec::new(),
+            bin_hz: 1.0,
+            white_rms: rms,
+        }
+    }
+
+    /// The profile of `residual` sampled at `sample_rate_hz`.
+    pub fn of_residual(residual: &[f64], sample_rate_hz: f64) -> Self {
+        let n = residual.len();
+        let rms = crate::refine::robust_rms(residual);
+        if n < 64 || !residual.iter().all(|v| v.is_finite()) {
+            return Self::white(rms);
+        }
+        let mut planner = realfft::RealFftPlanner::<f64>::new();
+        let fft = planner.plan_fft_forward(n);
+        let mut input = residual.to_vec();
+        let mut spectrum = fft.make_output_vec();
+        if fft.process(&mut input, &mut spectrum).is_err() {
+            return Self::white(rms);
+        }
+        let mut cumulative = Vec::with_capacity(spectrum.len() + 1);
+        cumulative.push(0.0);
+        let mut acc = 0.0;
+        for z in &spectrum {
+            acc += z.norm_sqr() / n as f64;
+            cumulative.push(acc);
+        }
+        Self {
+            cumulative,
+            bin_hz: sample_rate_hz / n as f64,
+            white_rms: rms,
+        }
+    }
+
+    /// The noise's standard deviation as seen near `freq_hz`.
+    pub fn rms_at(&self, freq_hz: f64) -> f64 {
+        let bins = self.cumulative.len().saturating_sub(1);
+        if bins < 2 || !freq_hz.is_finite() {
+            return self.white_rms;
+        }
+        let half = (0.02 * freq_hz).max(25.0);
+        let lo = (((freq_hz - half) / self.bin_hz).floor().max(0.0) as usize).min(bins - 1);
+        let hi = (((freq_hz + half) / self.bin_hz).ceil().max(0.0) as usize).clamp(lo + 1, bins);
+        let mean = (self.cumulative[hi] - self.cumulative[lo]) / (hi - lo) as f64;
+        if mean > 0.0 && mean.is_finite() {
+            mean.sqrt()
+        } else {
+            self.white_rms
+        }
+    }
+}
+
 /// Longest group of overlapping modes bounded jointly (4 parameters each); a longer run of
 /// overlapping modes is cut into groups of this size (the cut ignores a little coupling).
 const MAX_GROUP: usize = 6;
 
-/// The Cramér–Rao bound of each of `modes` over `n` samples at `sample_rate_hz` with white noise
-/// of standard deviation `noise_rms`: every mode is bounded jointly with the modes whose peaks
+/// The Cramér–Rao bound of each of `modes` over `n` samples at `sample_rate_hz` with the noise
+/// `noise` has near each group of modes (the loudest of the group's levels): every mode is bounded jointly with the modes whose peaks
 /// overlap its own (closer than three resolution widths `1/T` plus both half-power bandwidths),
 /// so an isolated mode gets its single-mode bound and a close pair the larger bound it has.
 /// The result is parallel to `modes`; a singular group (two identical modes) gives `None`s.
@@ -115,10 +184,10 @@ pub fn mode_sigmas(
     modes: &[DampedMode],
     sample_rate_hz: f64,
     n: usize,
-    noise_rms: f64,
+    noise: &NoiseProfile,
 ) -> Vec<Option<ModeSigma>> {
     let mut out = vec![None; modes.len()];
-    if n == 0 || !(noise_rms.is_finite() && noise_rms >= 0.0) {
+    if n == 0 {
         return out;
     }
     let mut order: Vec<usize> = (0..modes.len()).collect();
@@ -138,6 +207,14 @@ pub fn mode_sigmas(
             end += 1;
         }
         let group: Vec<DampedMode> = order[start..end].iter().map(|&i| modes[i]).collect();
+        let noise_rms = group
+            .iter()
+            .map(|m| noise.rms_at(m.freq_hz))
+            .fold(0.0, f64::max);
+        if !(noise_rms.is_finite() && noise_rms >= 0.0) {
+            start = end;
+            continue;
+        }
         if let Some(b) = cramer_rao(&group, sample_rate_hz, n, noise_rms) {
             for (k, &i) in order[start..end].iter().enumerate() {
                 out[i] = Some(ModeSigma {
@@ -204,7 +281,7 @@ mod sigma_tests {
     fn isolated_modes_get_their_single_mode_bound_and_a_close_pair_a_larger_one() {
         let (fs, n, noise) = (44_100.0, 44_100, 1e-3);
         let modes = [mode(440.0, 3.0, 0.5), mode(2000.0, 20.0, 0.2)];
-        let s = mode_sigmas(&modes, fs, n, noise);
+        let s = mode_sigmas(&modes, fs, n, &NoiseProfile::white(noise));
         for (m, s) in modes.iter().zip(&s) {
             let alone = cramer_rao(&[*m], fs, n, noise).unwrap()[0];
             let s = s.expect("a bound");
@@ -213,16 +290,18 @@ mod sigma_tests {
         }
         // A partner 0.5 Hz away (inside the 1 Hz resolution) makes both harder to pin down.
         let pair = [mode(440.0, 3.0, 0.5), mode(440.5, 3.0, 0.5)];
-        let p = mode_sigmas(&pair, fs, n, noise);
+        let p = mode_sigmas(&pair, fs, n, &NoiseProfile::white(noise));
         assert!(
             p[0].unwrap().freq_hz > 3.0 * s[0].unwrap().freq_hz,
             "{p:?} vs {s:?}"
         );
         // The phasor recursion agrees with the direct formula: the bound scales with the noise.
-        let twice = mode_sigmas(&modes, fs, n, 2.0 * noise);
+        let twice = mode_sigmas(&modes, fs, n, &NoiseProfile::white(2.0 * noise));
         assert!((twice[0].unwrap().freq_hz / s[0].unwrap().freq_hz - 2.0).abs() < 1e-9);
         // Two identical modes are singular: no bound rather than a made-up one.
-        assert!(mode_sigmas(&[modes[0], modes[0]], fs, n, noise)[0].is_none());
+        assert!(
+            mode_sigmas(&[modes[0], modes[0]], fs, n, &NoiseProfile::white(noise))[0].is_none()
+        );
     }
 
     /// The σ the analysis reports is what its errors scatter by: over noisy takes of one mode,

@@ -21,6 +21,7 @@
 //!    those fits is the second measure of how sure the pole is, and takes that disagree beyond
 //!    their own bound flag the pole.
 
+use crate::crb::NoiseProfile;
 use crate::refine::{self, cholesky_solve, normal_equations, Seed, P};
 use resound_core::damped::ModeSigma;
 use resound_core::DampedMode;
@@ -276,11 +277,20 @@ pub fn joint_fit(
         }
     }
     let poles: Vec<Pole> = kept.iter().map(|(q, _)| q.clone()).collect();
+    // Each take's noise near each frequency (coloured noise, what the fit misses).
+    let profiles: Vec<NoiseProfile> = residual
+        .iter()
+        .map(|r| NoiseProfile::of_residual(r, fs))
+        .collect();
     let mut modes: Vec<JointMode> = Vec::with_capacity(poles.len());
     for range in cluster_ranges(&poles, duration_s, params.max_cluster) {
         let cluster = &poles[range.clone()];
         let lens = windows(cluster, takes, &sigma, fs);
-        let crb = joint_bounds(cluster, &residual, &lens, &sigma, fs);
+        let centre = cluster.iter().map(|q| q.freq_hz).sum::<f64>() / cluster.len() as f64;
+        let local: Vec<f64> = (0..nt)
+            .map(|p| profiles[p].rms_at(centre).max(sigma[p]))
+            .collect();
+        let crb = joint_bounds(cluster, &lens, &local, fs);
         // Each take's own fit of the poles it hears, from the joint values.
         let mut own: Vec<Vec<Option<(DampedMode, Option<ModeSigma>)>>> =
             vec![vec![None; nt]; cluster.len()];
@@ -301,7 +311,7 @@ pub fn joint_fit(
             if alone.len() != hearing.len() {
                 continue;
             }
-            let s = crate::crb::mode_sigmas(&alone, fs, y.len(), sigma[p]);
+            let s = crate::crb::mode_sigmas(&alone, fs, y.len(), &profiles[p]);
             for (k, &j) in hearing.iter().enumerate() {
                 if alone[k].freq_hz.is_finite() && alone[k].damping_per_s.is_finite() {
                     own[j][p] = Some((alone[k], s[k]));
@@ -704,13 +714,12 @@ fn merge_close(cluster: &mut Vec<Pole>, window_s: f64) -> bool {
 /// matrix (the Fisher information under each take's noise) at the fit.
 fn joint_bounds(
     cluster: &[Pole],
-    residual: &[Vec<f64>],
     lens: &[usize],
     sigma: &[f64],
     fs: f64,
 ) -> Option<Vec<ModeSigma>> {
     let k = cluster.len();
-    let nt = residual.len();
+    let nt = lens.len();
     let np = 2 * k * (1 + nt);
     let ys: Vec<Vec<f64>> = (0..nt).map(|p| vec![0.0; lens[p]]).collect();
     let mut jtj = vec![0.0; np * np];

@@ -101,16 +101,29 @@ fn eight_microphones_give_one_set_of_poles() {
         assert_eq!(ds.len(), 8, "{f} Hz: {ds:?}");
         assert!(worst < 0.15, "{f} Hz alone: d {ds:?} (truth {d})");
     }
-    for &(f, d, ..) in TRUTH.iter().filter(|t| t.3 != 0) {
-        let ds: Vec<String> = analyses
-            .iter()
-            .map(|a| {
-                nearest(&a.modes, f).map_or("-".into(), |m| {
-                    format!("{:.2}/{:.2}", m.freq_hz, m.damping_per_s)
-                })
-            })
-            .collect();
-        eprintln!("pair member {f} Hz d {d}: {ds:?}");
+    // Each microphone alone resolves the pairs (as beating pairs, not one mode with a wrong
+    // damping) wherever it hears both members: d within 15 % where the member's gain is ≥ 0.3
+    // of its largest (a microphone near a member's nodal line does not hear it).
+    for &(f, d, _, n, member) in TRUTH.iter().filter(|t| t.3 != 0) {
+        let mut heard = 0;
+        for (a, &theta) in analyses.iter().zip(&angles) {
+            let g = if member == 0 {
+                (f64::from(n) * theta).cos()
+            } else {
+                (f64::from(n) * theta).sin()
+            };
+            let found = nearest(&a.modes, f).filter(|m| (m.freq_hz - f).abs() < 0.0002 * f);
+            eprintln!("pair member {f} Hz d {d}, gain {g:+.2}: {found:?}");
+            if g.abs() >= 0.3 {
+                let m = found.unwrap_or_else(|| panic!("{f} Hz missing at gain {g:.2}"));
+                assert!(
+                    (m.damping_per_s / d - 1.0).abs() < 0.15,
+                    "{f} Hz at gain {g:.2}: {m:?}"
+                );
+                heard += 1;
+            }
+        }
+        assert!(heard >= 4, "{f} Hz heard by {heard}");
     }
     let takes: Vec<JointTake> = analyses
         .iter()

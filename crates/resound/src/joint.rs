@@ -81,11 +81,12 @@ pub struct JointReport {
 }
 
 impl JointReport {
-    /// The modes of take `take` (shared f and d, its amplitude and phase) where it hears them.
+    /// The modes of take `take` (shared f and d, its amplitude and phase) where it hears them
+    /// (a non-zero amplitude).
     pub fn take_modes(&self, take: usize) -> Vec<resound_core::DampedMode> {
         self.modes
             .iter()
-            .filter(|m| m.own.get(take).is_some_and(Option::is_some))
+            .filter(|m| m.amplitude.get(take).is_some_and(|&a| a > 0.0))
             .map(|m| resound_core::DampedMode {
                 freq_hz: m.freq_hz,
                 damping_per_s: m.damping_per_s,
@@ -287,4 +288,42 @@ pub fn analyze_joint<P: AsRef<Path>>(
         elapsed_s: start.elapsed().as_secs_f64(),
     };
     Ok((report, res))
+}
+
+/// Replaces the modes of several takes of one object (all at one rate) by the poles they
+/// share ([`joint_fit`]): each take keeps its own amplitudes and phases at the shared f and d,
+/// with the joint σ. Returns a note saying what was done, or why the takes were left alone
+/// (one take, different rates, a failed fit).
+pub fn share_poles(takes: &mut [crate::recording::AnalysedTake], joint: &JointParams) -> String {
+    if takes.len() < 2 {
+        return "one take: its own poles".into();
+    }
+    let fs = takes[0].analysis.sample_rate_hz;
+    if takes.iter().any(|t| t.analysis.sample_rate_hz != fs) {
+        return "the takes are at different rates: each keeps its own poles".into();
+    }
+    let inputs: Vec<JointTake> = takes
+        .iter()
+        .map(|t| JointTake {
+            segment: &t.analysis.segment,
+            noise_rms: t.analysis.noise_rms,
+            modes: &t.analysis.modes,
+        })
+        .collect();
+    let res = match joint_fit(&inputs, fs, joint) {
+        Ok(r) => r,
+        Err(e) => return format!("the joint fit failed ({e}): each take keeps its own poles"),
+    };
+    for (p, t) in takes.iter_mut().enumerate() {
+        let heard: Vec<&resound_signal::joint::JointMode> =
+            res.modes.iter().filter(|m| m.heard[p]).collect();
+        t.analysis.modes = res.take_modes(p);
+        t.analysis.sigma = heard.iter().map(|m| m.sigma).collect();
+    }
+    let flagged = res.modes.iter().filter(|m| m.disagree).count();
+    format!(
+        "the {} takes were fitted jointly: {} shared poles (f, d), each take with its own amplitudes; the takes disagree about {flagged}",
+        takes.len(),
+        res.modes.len()
+    )
 }

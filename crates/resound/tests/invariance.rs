@@ -362,3 +362,58 @@ fn a_raw_file_gives_the_estimate_of_its_trimmed_strike() {
     eprintln!("Koi bowl: trimmed {a:?}\n          raw     {b:?}");
     assert!((b.gamma / a.gamma - 1.0).abs() < 0.1, "{a:?} vs {b:?}");
 }
+
+/// Both microphones of the bundled ramp recording, fitted jointly (`analyze --joint
+/// --every-channel`): each channel's own fit of every pole both hear agrees with the other's
+/// within their σ (damping for all but one in ten, frequency for three in four), and the
+/// report reads back as written.
+#[test]
+fn both_channels_of_the_ramp_give_the_same_poles_within_their_sigma() {
+    let path = assets().join("steel_nut_M4_2.wav");
+    let (report, joint) = resound::joint::analyze_joint(
+        &[&path],
+        &Default::default(),
+        &AnalyzeParams::default(),
+        resound::recording::TakeSelection {
+            every_channel: true,
+            every_strike: false,
+        },
+        &Default::default(),
+        &|_| {},
+    )
+    .unwrap();
+    assert_eq!(report.takes.len(), 2);
+    assert_eq!(report.modes.len(), joint.modes.len());
+    let mut zf = Vec::new();
+    let mut zd = Vec::new();
+    for m in report.modes.iter().filter(|m| m.heard_in == 2) {
+        let (Some(a), Some(b)) = (m.own[0], m.own[1]) else {
+            panic!("a pole both channels hear lacks a channel's own fit: {m:?}");
+        };
+        let (Some(sa), Some(sb)) = (a.sigma, b.sigma) else {
+            continue;
+        };
+        zf.push((a.freq_hz - b.freq_hz).abs() / sa.freq_hz.hypot(sb.freq_hz));
+        zd.push(
+            (a.damping_per_s - b.damping_per_s).abs() / sa.damping_per_s.hypot(sb.damping_per_s),
+        );
+    }
+    let share = |z: &[f64]| z.iter().filter(|&&v| v <= 3.0).count() as f64 / z.len() as f64;
+    eprintln!(
+        "{} poles heard by both channels: f within 3σ {:.0} %, d within 3σ {:.0} %",
+        zf.len(),
+        100.0 * share(&zf),
+        100.0 * share(&zd)
+    );
+    assert!(zf.len() >= 15, "{zf:?}");
+    assert!(share(&zd) >= 0.9, "{zd:?}");
+    assert!(share(&zf) >= 0.75, "{zf:?}");
+    // Every take's modes are the shared poles, and the JSON reads back to the same modes.
+    let text = serde_json::to_string(&report).unwrap();
+    let back: resound::joint::JointReport = serde_json::from_str(&text).unwrap();
+    for take in 0..2 {
+        assert_eq!(back.take_modes(take), report.take_modes(take));
+        assert_eq!(report.take_modes(take), joint.take_modes(take));
+        assert!(report.take_modes(take).len() >= 15);
+    }
+}

@@ -34,6 +34,7 @@ __all__ = [
     "Scene",
     "SceneRender",
     "analyze",
+    "analyze_joint",
     "analyze_grains",
     "batch",
     "estimate_material",
@@ -162,6 +163,37 @@ def analyze(audio: Union[PathLike, np.ndarray], sample_rate: Optional[float] = N
                                           max_modes, min_db)
     rep.pop("modes", None)
     return Modes.from_array(rows, rep)
+
+
+def analyze_joint(files: Sequence[PathLike], *, channel: Optional[int] = None,
+                  strike: Optional[int] = None, every_channel: bool = False,
+                  every_strike: bool = False, resample_hz: Optional[int] = None,
+                  max_modes: int = 64, min_db: float = 60.0
+                  ) -> Tuple[List[Modes], Dict[str, Any]]:
+    """One set of poles (f, d) shared by several takes of one object — files, and with
+    ``every_channel`` / ``every_strike`` their channels and strikes — each take with its own
+    amplitudes and phases (``resound analyze --joint``).
+
+    Returns each take's modes (the shared f and d where that take hears them) and the joint
+    report: the takes, and per pole σ (the larger of the joint Cramér–Rao bound and the
+    takes' scatter), how many takes hear it, each take's own fit and ``disagree`` where the
+    takes' fits stray beyond their σ.
+    """
+    if isinstance(files, (str, os.PathLike)):
+        raise TypeError("files is a list of paths (one object's takes)")
+    paths = [os.fspath(f) for f in files]
+    if channel is not None and every_channel:
+        raise TypeError("channel and every_channel exclude each other")
+    if strike is not None and every_strike:
+        raise TypeError("strike and every_strike exclude each other")
+    rep = _native.analyze_joint(paths, channel, strike, every_channel, every_strike,
+                                resample_hz, max_modes, min_db)
+    takes = []
+    for k, t in enumerate(rep["takes"]):
+        rows = [(m["freq_hz"], m["damping_per_s"], m["amplitude"][k], m["phase_rad"][k])
+                for m in rep["modes"] if m["amplitude"][k] > 0]
+        takes.append(Modes.from_array(np.array(rows, dtype=np.float64), dict(t)))
+    return takes, rep
 
 
 def material(spec: PathLike, *, library: Optional[PathLike] = None) -> Material:

@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = ["ResoundError", "Material", "ModalModel", "ModeStatistics", "GrainDictionary", "analyze_file",
-           "analyze_array", "get_material", "list_materials", "save_material",
+           "analyze_array", "analyze_joint", "get_material", "list_materials", "save_material",
            "estimate_material", "render_strike", "render_modes", "render_impact",
            "render_scene", "batch", "render_scrape", "grains_analyze", "render_scene_dict",
            "version"]
@@ -160,6 +160,10 @@ def analyze_file(path: _Path, channel: Optional[int] = None, strike: Optional[in
 def analyze_array(samples: npt.NDArray[np.float64], sample_rate: float,
                   strike: Optional[int] = None, max_modes: int = 64,
                   min_db: float = 60.0) -> Tuple[npt.NDArray[np.float64], _Report]: ...
+def analyze_joint(paths: Sequence[_Path], channel: Optional[int] = None,
+                  strike: Optional[int] = None, every_channel: bool = False,
+                  every_strike: bool = False, resample_hz: Optional[int] = None,
+                  max_modes: int = 64, min_db: float = 60.0) -> _Report: ...
 def get_material(spec: _Path, library: Optional[_Path] = None) -> Material: ...
 def list_materials(library: Optional[_Path] = None) -> List[Material]: ...
 def save_material(material: Material, library: Optional[_Path] = None,

@@ -792,6 +792,12 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
         notes.extend(skipped.iter().map(|s| format!("skipped {s}")));
         analysed.extend(takes);
     }
+    if analysed.len() > 1 {
+        notes.push(crate::joint::share_poles(
+            &mut analysed,
+            &Default::default(),
+        ));
+    }
     let model = crate::object::load_object(&job.object, &job.object_params, progress)?;
     let mut params = EstimateMaterialParams {
         object_name: job.object.display().to_string(),
