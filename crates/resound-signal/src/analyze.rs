@@ -916,7 +916,6 @@ fn split_beating(seg: &[f64], fs: f64, seeds: &mut Vec<Seed>, noise_rms: f64) ->
     if pairs.is_empty() {
         return false;
     }
-    pairs.sort_by(|a, b| b.0.cmp(&a.0));
     for (i, pair) in pairs {
         let window_len = seeds[i].window_len;
         seeds[i].mode = pair[0];

@@ -7,7 +7,7 @@
 //! line hears a beating pair as one mode with a wrong damping. Fitted jointly, the poles are
 //! what every take agrees on (the polyreference idea of experimental modal analysis):
 //!
-//! 1. each take is analysed alone ([`crate::analyze`]);
+//! 1. each take is analysed alone ([`crate::analyze()`]);
 //! 2. the modes of all takes are grouped by frequency (modes of one take never share a group,
 //!    so a pair one take resolves stays a pair) and each group seeds one pole, at the median
 //!    f and d of its members;
@@ -27,7 +27,7 @@ use resound_core::damped::ModeSigma;
 use resound_core::DampedMode;
 use thiserror::Error;
 
-/// One take of the object: what [`crate::analyze`] made of it.
+/// One take of the object: what [`crate::analyze()`] made of it.
 #[derive(Clone, Copy, Debug)]
 pub struct JointTake<'a> {
     /// The analysed samples (t = 0 at the onset), as [`crate::Analysis::segment`].
@@ -67,6 +67,9 @@ impl Default for JointParams {
     }
 }
 
+/// A take's own fit of a shared pole (started from the joint values) and its σ in that take.
+pub type OwnFit = (DampedMode, Option<ModeSigma>);
+
 /// One pole shared by every take.
 #[derive(Clone, Debug, PartialEq)]
 pub struct JointMode {
@@ -87,8 +90,8 @@ pub struct JointMode {
     pub phase_rad: Vec<f64>,
     /// Whether each take hears the pole (energy above `min_energy_snr` times its noise).
     pub heard: Vec<bool>,
-    /// Each hearing take's own fit `(f, d)` started from the joint pole, with its own σ.
-    pub own: Vec<Option<(DampedMode, Option<ModeSigma>)>>,
+    /// Each hearing take's own fit started from the joint pole, with its own σ.
+    pub own: Vec<Option<OwnFit>>,
     /// Root mean square over takes (and f, d) of the own fits' deviation from the joint
     /// pole in their own σ.
     pub disagreement_sigmas: f64,
@@ -170,9 +173,8 @@ pub fn joint_fit(
             "max_cluster and max_iterations must be at least 1".into(),
         ));
     }
-    if !(params.min_energy_snr.is_finite() && params.min_energy_snr > 0.0)
-        || !(params.disagree_sigmas.is_finite() && params.disagree_sigmas > 0.0)
-    {
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !positive(params.min_energy_snr) || !positive(params.disagree_sigmas) {
         return Err(JointError::Param(
             "min_energy_snr and disagree_sigmas must be positive".into(),
         ));
@@ -292,8 +294,7 @@ pub fn joint_fit(
             .collect();
         let crb = joint_bounds(cluster, &lens, &local, fs);
         // Each take's own fit of the poles it hears, from the joint values.
-        let mut own: Vec<Vec<Option<(DampedMode, Option<ModeSigma>)>>> =
-            vec![vec![None; nt]; cluster.len()];
+        let mut own: Vec<Vec<Option<OwnFit>>> = vec![vec![None; nt]; cluster.len()];
         for p in 0..nt {
             let hearing: Vec<usize> = (0..cluster.len())
                 .filter(|&j| kept[range.start + j].1[p])
@@ -320,7 +321,7 @@ pub fn joint_fit(
         }
         for (j, q) in cluster.iter().enumerate() {
             let heard = kept[range.start + j].1.clone();
-            let fits: Vec<&(DampedMode, Option<ModeSigma>)> = own[j].iter().flatten().collect();
+            let fits: Vec<&OwnFit> = own[j].iter().flatten().collect();
             let scatter = (fits.len() >= 2).then(|| {
                 let sd = |v: Vec<f64>| {
                     let n = v.len() as f64;
