@@ -393,8 +393,25 @@ fn draw_features(
     res: &Analysis,
 ) -> std::result::Result<(), Box<dyn std::error::Error>> {
     let r = FdRange::of(res.modes.iter());
-    let mut chart = fd_chart(area, "features (f, d); size = level", 18, &r)?;
+    let mut chart = fd_chart(area, "features (f, d) with ±σ; size = level", 18, &r)?;
     let strongest = res.modes.iter().map(|m| m.amplitude).fold(0.0, f64::max);
+    // Each mode's σ of f and d (the analysis's Cramér–Rao bound) as a cross, clipped to the
+    // axes: a mode whose damping is not determined shows a bar across the plot.
+    let bar = RGBColor(90, 90, 90).stroke_width(1);
+    chart.draw_series(res.modes.iter().zip(&res.sigma).flat_map(|(m, s)| {
+        let Some(s) = *s else {
+            return Vec::new();
+        };
+        let (f, d) = (m.freq_hz, m.damping_per_s);
+        let d_lo = (d - s.damping_per_s).max(r.d_min);
+        let d_hi = (d + s.damping_per_s).min(r.d_max);
+        let f_lo = (f - s.freq_hz).max(r.f_min);
+        let f_hi = (f + s.freq_hz).min(r.f_max);
+        vec![
+            PathElement::new(vec![(f, d_lo), (f, d_hi)], bar),
+            PathElement::new(vec![(f_lo, d), (f_hi, d)], bar),
+        ]
+    }))?;
     chart.draw_series(res.modes.iter().map(|m| {
         let level = 20.0 * (m.amplitude / strongest).log10();
         let r = (3.0 + (level + 60.0).max(0.0) / 6.0) as i32;

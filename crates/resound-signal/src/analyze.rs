@@ -33,6 +33,10 @@ pub struct AnalyzeParams {
     pub rounds: usize,
     /// A mode must carry this much energy relative to the noise variance (Σ s² / σ²) to stay.
     pub min_energy_snr: f64,
+    /// The strikes' onsets in seconds when they were found elsewhere — on the mix of every
+    /// channel, so that strike K of each channel is the same event — instead of on this
+    /// signal (each onset is still refined on this signal, by a few samples at most).
+    pub onsets_s: Option<Vec<f64>>,
     /// Search the residual with sub-band ESPRIT ([`crate::subspace`]) for modes the spectrogram
     /// stage cannot see: fast decays, beating doublets, low modes.
     pub subspace: bool,
@@ -50,6 +54,7 @@ impl Default for AnalyzeParams {
             refine: true,
             rounds: 2,
             min_energy_snr: 40.0,
+            onsets_s: None,
             subspace: true,
         }
     }
@@ -316,7 +321,17 @@ pub fn analyze(
         }
         c
     };
-    let sc = scan(&causal, sample_rate_hz);
+    let mut sc = scan(&causal, sample_rate_hz);
+    if let Some(given) = &params.onsets_s {
+        sc.onsets = given
+            .iter()
+            .filter(|t| t.is_finite() && **t >= 0.0)
+            .map(|t| (t * sample_rate_hz).round() as usize)
+            .filter(|&o| o < causal.len())
+            .collect();
+        sc.onsets.sort_unstable();
+        sc.onsets.dedup();
+    }
     let mut warnings = Vec::new();
     if sc.clipped_samples > 0 {
         warnings.push(Warning::new(WarningKind::Input, format!(

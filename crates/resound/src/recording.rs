@@ -253,6 +253,20 @@ pub fn analyze_takes(
         vec![recording.channel]
     };
     let name = path.display().to_string();
+    // Every strike of every channel: the strikes are found once, on the mix, so strike K is
+    // the same event in every channel (each channel finding its own would pair different hits).
+    let mut params = params.clone();
+    if select.every_strike && channels.len() > 1 && params.onsets_s.is_none() {
+        let mix = RecordingParams {
+            channel: None,
+            ..*recording
+        };
+        let (samples, fs) = take_channel(&clip, &mix, path)?;
+        let found = analyze(&samples, f64::from(fs), &params)
+            .map_err(|e| Error::from(e).context(format!("cannot find the strikes of {name}")))?;
+        params.onsets_s = Some(found.strikes_s);
+    }
+    let params = &params;
     let mut takes = Vec::new();
     let mut skipped = Vec::new();
     for ch in channels {

@@ -417,3 +417,62 @@ fn both_channels_of_the_ramp_give_the_same_poles_within_their_sigma() {
         assert!(report.take_modes(take).len() >= 15);
     }
 }
+
+/// Every strike of both channels of the ramp recording: the strikes are found once (on the
+/// mix), so strike K is the same event in both channels; the poles most takes hear come out
+/// of each take's own fit within its σ of the joint pole (d nearly always, f mostly).
+#[test]
+fn every_strike_of_both_ramp_channels_gives_the_joint_poles_within_sigma() {
+    let path = assets().join("steel_nut_M4_2.wav");
+    let (report, _) = resound::joint::analyze_joint(
+        &[&path],
+        &Default::default(),
+        &AnalyzeParams::default(),
+        resound::recording::TakeSelection {
+            every_channel: true,
+            every_strike: true,
+        },
+        &Default::default(),
+        &|_| {},
+    )
+    .unwrap();
+    let takes = &report.takes;
+    assert!(takes.len() >= 6 && takes.len() % 2 == 0, "{takes:?}");
+    let half = takes.len() / 2;
+    for k in 0..half {
+        assert!(
+            takes[k].label.contains("channel 1") && takes[k + half].label.contains("channel 2")
+        );
+        assert!(
+            (takes[k].onset_s - takes[k + half].onset_s).abs() < 0.002,
+            "strike {} differs between channels: {takes:?}",
+            k + 1
+        );
+    }
+    let (mut zf, mut zd) = (Vec::new(), Vec::new());
+    let common: Vec<_> = report
+        .modes
+        .iter()
+        .filter(|m| 2 * m.heard_in >= takes.len())
+        .collect();
+    for m in &common {
+        for own in m.own.iter().flatten() {
+            if let Some(s) = own.sigma {
+                zf.push((own.freq_hz - m.freq_hz).abs() / s.freq_hz);
+                zd.push((own.damping_per_s - m.damping_per_s).abs() / s.damping_per_s);
+            }
+        }
+    }
+    let share = |z: &[f64]| z.iter().filter(|&&v| v <= 3.0).count() as f64 / z.len() as f64;
+    eprintln!(
+        "{} takes, {} poles heard by half of them, {} own fits: f within 3σ {:.0} %, d {:.0} %",
+        takes.len(),
+        common.len(),
+        zf.len(),
+        100.0 * share(&zf),
+        100.0 * share(&zd)
+    );
+    assert!(common.len() >= 12, "{}", common.len());
+    assert!(share(&zd) >= 0.9, "{zd:?}");
+    assert!(share(&zf) >= 0.7, "{zf:?}");
+}
