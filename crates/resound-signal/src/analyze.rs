@@ -449,18 +449,19 @@ pub fn analyze(
         };
         refine_and_prune(seg, sample_rate_hz, &mut seeds, &refine, &mut info, params);
     }
+    // The squared error of a mode set over the segment (a pass that does not lower it is undone).
+    let rss = |seeds: &[Seed]| {
+        let mut r = seg.to_vec();
+        for s in seeds {
+            add_mode(&s.mode, sample_rate_hz, -1.0, &mut r);
+        }
+        r.iter().map(|v| v * v).sum::<f64>()
+    };
     if params.refine && params.subspace && !seeds.is_empty() {
         // The residual's spread overstates the noise while modes are still missing from the
         // model; the lead-in measures it directly.
         let lead_in_rms = (conditioning.noise_from == "lead-in")
             .then(|| 10f64.powf(conditioning.noise_floor_dbfs / 20.0));
-        let rss = |seeds: &[Seed]| {
-            let mut r = seg.to_vec();
-            for s in seeds {
-                add_mode(&s.mode, sample_rate_hz, -1.0, &mut r);
-            }
-            r.iter().map(|v| v * v).sum::<f64>()
-        };
         for _pass in 0..2 {
             let noise = lead_in_rms.map_or(info.noise_rms, |r| r.min(info.noise_rms));
             // A pass that does not fit the segment better is undone (a pole LM drove somewhere
@@ -497,13 +498,6 @@ pub fn analyze(
                 .min(10f64.powf(conditioning.noise_floor_dbfs / 20.0))
         } else {
             info.noise_rms
-        };
-        let rss = |seeds: &[Seed]| {
-            let mut r = seg.to_vec();
-            for s in seeds {
-                add_mode(&s.mode, sample_rate_hz, -1.0, &mut r);
-            }
-            r.iter().map(|v| v * v).sum::<f64>()
         };
         let (kept, kept_info, kept_rss) = (seeds.clone(), info.clone(), rss(&seeds));
         if split_beating(seg, sample_rate_hz, &mut seeds, noise) {

@@ -38,6 +38,10 @@ pub struct JointTake<'a> {
     pub modes: &'a [DampedMode],
 }
 
+/// Most takes [`joint_fit`] takes: each adds two unknowns per pole to every cluster's dense
+/// normal matrix (64 takes of a 4-pole cluster: 520 unknowns).
+pub const MAX_TAKES: usize = 64;
+
 /// Settings of [`joint_fit`].
 #[derive(Clone, Debug)]
 pub struct JointParams {
@@ -139,6 +143,9 @@ pub enum JointError {
     /// No takes given.
     #[error("no takes to fit")]
     NoTakes,
+    /// More takes than one fit holds (its normal matrix grows with their square).
+    #[error("{0} takes; at most {MAX_TAKES} are fitted jointly (pick the microphones or strikes to use)")]
+    TooManyTakes(usize),
     /// A take without samples or with a non-finite or negative noise figure.
     #[error("take {0} has no samples or no finite noise figure")]
     BadTake(usize),
@@ -162,6 +169,9 @@ pub fn joint_fit(
 ) -> Result<JointAnalysis, JointError> {
     if takes.is_empty() {
         return Err(JointError::NoTakes);
+    }
+    if takes.len() > MAX_TAKES {
+        return Err(JointError::TooManyTakes(takes.len()));
     }
     if !(sample_rate_hz.is_finite() && sample_rate_hz > 0.0) {
         return Err(JointError::Param(format!(
@@ -286,8 +296,32 @@ pub fn joint_fit(
         .collect();
     let mut modes: Vec<JointMode> = Vec::with_capacity(poles.len());
     for range in cluster_ranges(&poles, duration_s, params.max_cluster) {
-        let cluster = &poles[range.clone()];
-        let lens = windows(cluster, takes, &sigma, fs);
+        let mut converged = poles[range.clone()].to_vec();
+        let lens = windows(&converged, takes, &sigma, fs);
+        // The cluster once more against the final residual (its neighbours moved after it was
+        // fitted): the takes' own fits below start from, and are compared with, the optimum
+        // of the very targets they fit, so a deviation is the takes', not the sweeps'.
+        let targets: Vec<Vec<f64>> = (0..nt)
+            .map(|p| {
+                let mut y = residual[p][..lens[p]].to_vec();
+                for pole in &converged {
+                    pole.take_mode(p).add_scaled(fs, 1.0, &mut y);
+                }
+                y
+            })
+            .collect();
+        let mut fitted = converged.clone();
+        iterations += joint_lm(&targets, &sigma, fs, &mut fitted, params.max_iterations);
+        if fitted.iter().all(|q| q.finite()) {
+            for (p, r) in residual.iter_mut().enumerate() {
+                for (old, new) in converged.iter().zip(&fitted) {
+                    old.take_mode(p).add_scaled(fs, 1.0, r);
+                    new.take_mode(p).add_scaled(fs, -1.0, r);
+                }
+            }
+            converged = fitted;
+        }
+        let cluster = &converged[..];
         let centre = cluster.iter().map(|q| q.freq_hz).sum::<f64>() / cluster.len() as f64;
         let local: Vec<f64> = (0..nt)
             .map(|p| profiles[p].rms_at(centre).max(sigma[p]))
@@ -371,10 +405,12 @@ pub fn joint_fit(
                 heard,
                 own: own[j].clone(),
                 disagreement_sigmas,
-                disagree: disagreement_sigmas > params.disagree_sigmas,
+                // One take has no other to disagree with.
+                disagree: nt > 1 && disagreement_sigmas > params.disagree_sigmas,
             });
         }
     }
+    modes.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
     Ok(JointAnalysis {
         modes,
         noise_rms: residual.iter().map(|r| refine::robust_rms(r)).collect(),
@@ -824,6 +860,19 @@ mod tests {
             assert!(m.heard.iter().all(|&h| h));
         }
         assert!(j.take_modes(2).len() == 4);
+        // One take alone: its own fit is the joint fit (nothing to disagree with, and the
+        // deviation measured is the take's, not the sweeps' leftover convergence).
+        let alone = joint_fit(&takes[..1], fs, &JointParams::default()).unwrap();
+        assert!(
+            alone.modes.iter().all(|m| m.disagreement_sigmas < 0.5),
+            "{:?}",
+            alone.modes
+        );
+        let many = vec![takes[0]; MAX_TAKES + 1];
+        assert_eq!(
+            joint_fit(&many, fs, &JointParams::default()),
+            Err(JointError::TooManyTakes(MAX_TAKES + 1))
+        );
         assert_eq!(
             joint_fit(&[], fs, &JointParams::default()),
             Err(JointError::NoTakes)
@@ -861,7 +910,11 @@ mod tests {
             modes: &found[0],
         }];
         let j1 = joint_fit(&one, fs, &JointParams::default()).unwrap();
-        assert!(j1.modes.iter().all(|m| !m.disagree), "{:?}", j1.modes);
+        assert!(
+            j1.modes.iter().all(|m| m.disagreement_sigmas < 0.5),
+            "{:?}",
+            j1.modes
+        );
         let takes: Vec<JointTake> = segs
             .iter()
             .zip(&found)

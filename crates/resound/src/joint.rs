@@ -198,6 +198,11 @@ pub fn analyze_joint<P: AsRef<Path>>(
     progress(Progress::begin(Stage::Estimating).with_label("shared poles"));
     let res = joint_fit(&inputs, fs, joint)
         .map_err(|e| invalid(e.to_string()).context("cannot fit the takes jointly"))?;
+    if res.modes.is_empty() {
+        return Err(invalid(
+            "the joint fit kept no pole: no take hears one above its noise",
+        ));
+    }
     if takes.len() == 1 {
         warnings.push(Warning::new(
             WarningKind::Input,
@@ -317,8 +322,11 @@ pub fn share_poles(takes: &mut [crate::recording::AnalysedTake], joint: &JointPa
     for (p, t) in takes.iter_mut().enumerate() {
         let heard: Vec<&resound_signal::joint::JointMode> =
             res.modes.iter().filter(|m| m.heard[p]).collect();
-        t.analysis.modes = res.take_modes(p);
-        t.analysis.sigma = heard.iter().map(|m| m.sigma).collect();
+        // A take that hears no shared pole keeps its own modes (estimation needs some).
+        if !heard.is_empty() {
+            t.analysis.modes = res.take_modes(p);
+            t.analysis.sigma = heard.iter().map(|m| m.sigma).collect();
+        }
     }
     let flagged = res.modes.iter().filter(|m| m.disagree).count();
     format!(

@@ -476,3 +476,33 @@ fn every_strike_of_both_ramp_channels_gives_the_joint_poles_within_sigma() {
     assert!(share(&zd) >= 0.9, "{zd:?}");
     assert!(share(&zf) >= 0.7, "{zf:?}");
 }
+
+/// A real RealImpact strike fitted "jointly" as its only take: the take's own refit of every
+/// pole lands on the joint pole (within half its σ). A joint fit that left clusters short of
+/// convergence after its sweeps flagged 18 of 28 poles of this bowl as disagreeing with
+/// themselves.
+#[test]
+fn one_real_take_agrees_with_its_own_joint_fit() {
+    let Some(data) = shared_data() else {
+        eprintln!("skipped: ../shared/data is not here");
+        return;
+    };
+    let path = data.join("recordings/realimpact-mesheditor/CeramicKoiBowlImpact.wav");
+    let (report, _) = resound::joint::analyze_joint(
+        &[&path],
+        &Default::default(),
+        &AnalyzeParams::default(),
+        Default::default(),
+        &Default::default(),
+        &|_| {},
+    )
+    .unwrap();
+    assert!(report.modes.len() >= 10, "{}", report.modes.len());
+    for m in &report.modes {
+        assert!(m.disagreement_sigmas < 0.5 && !m.disagree, "{m:?}");
+    }
+    assert!(report
+        .warnings
+        .iter()
+        .any(|w| w.message.contains("one take only")));
+}
