@@ -316,9 +316,10 @@ impl Patch<'_> {
                 let x = self.spec.at(m, k);
                 xx += x.norm_sqr();
                 for a in 0..n {
-                    b[a] += (cols[a].conj() * x).re;
+                    let ca = cols[a];
+                    b[a] += ca.re * x.re + ca.im * x.im;
                     for c in a..n {
-                        g[a * n + c] += (cols[a].conj() * cols[c]).re;
+                        g[a * n + c] += ca.re * cols[c].re + ca.im * cols[c].im;
                     }
                 }
             }
@@ -481,7 +482,7 @@ fn fit_group(
         v[i] += if i % 2 == 0 { 0.3 * bw } else { 0.7 };
         simplex.push(v);
     }
-    let solver = NelderMead::new(simplex).with_sd_tolerance(1e-10).ok()?;
+    let solver = NelderMead::new(simplex).with_sd_tolerance(1e-8).ok()?;
     let res = Executor::new(PatchCost(&patch), solver)
         .configure(|s| s.max_iters(150 * bins.len() as u64))
         .run()

@@ -248,7 +248,7 @@ impl ModeColumns {
         let (sb, cb) = self.half_beta;
         let g = |half: (f64, f64), angle: f64| {
             let d = Self::em1(self.em1_sigma, self.e_sigma, half);
-            if d.norm() > 1e-7 {
+            if d.norm_sqr() > 1e-14 {
                 n / d
             } else {
                 // ℓ' ≈ 0 (mod 2πj): second-order series of the geometric sum.
