@@ -359,6 +359,19 @@ pub struct WideReport {
 
 /// Runs the wide protocol at `snr_db` with `trials` cases from `seed`.
 pub fn wide(snr_db: f64, trials: usize, seed: u64, params: &AnalyzeParams) -> WideReport {
+    wide_with(snr_db, trials, seed, |x, fs| {
+        analyze(x, fs, params).ok().map(|a| (a.modes, a.onset_s))
+    })
+}
+
+/// The wide protocol with any analysis: `analyse(signal, fs)` returns the modes and the onset
+/// (seconds), or `None` when it fails.
+pub fn wide_with(
+    snr_db: f64,
+    trials: usize,
+    seed: u64,
+    mut analyse: impl FnMut(&[f64], f64) -> Option<(Vec<DampedMode>, f64)>,
+) -> WideReport {
     let mut rng = SmallRng::seed_from_u64(seed);
     let mut counts = [[0usize; 2]; 4]; // all, damped, low, doublet: [reference, recalled]
     let (mut found_total, mut spurious, mut failed, mut onset_ok) = (0, 0, 0, 0);
@@ -368,12 +381,12 @@ pub fn wide(snr_db: f64, trials: usize, seed: u64, params: &AnalyzeParams) -> Wi
         let case = wide_case(&mut rng, snr_db);
         let n = case.signal.len() - case.onset;
         let t0 = Instant::now();
-        let res = analyze(&case.signal, WIDE_FS, params);
+        let res = analyse(&case.signal, WIDE_FS);
         elapsed += t0.elapsed().as_secs_f64();
         audio += case.signal.len() as f64 / WIDE_FS;
         let (found, onset_s) = match res {
-            Ok(a) => (a.modes, a.onset_s),
-            Err(_) => {
+            Some(a) => a,
+            None => {
                 failed += 1;
                 (Vec::new(), f64::NAN)
             }

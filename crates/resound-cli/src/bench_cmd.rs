@@ -210,6 +210,8 @@ bench_args! {
         wide_snr_db: String,
         /// Run only the wide protocol.
         wide_only: bool,
+        /// Skip the textbook ESPRIT baseline rows of the wide protocol.
+        no_baseline: bool,
     }
 }
 

@@ -53,14 +53,18 @@ pub fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
         refined: Option<Method>,
         #[serde(skip_serializing_if = "Option::is_none")]
         stage1: Option<Method>,
+        /// The textbook ESPRIT baseline on the wide protocol's cases.
+        #[serde(skip_serializing_if = "Option::is_none")]
+        esprit: Option<Vec<crate::analysis::WideReport>>,
     }
     let mut out = Doc {
         benchmark: "analyze",
         refined: None,
         stage1: None,
+        esprit: None,
     };
     for (name, params) in &methods {
-        if !a.json {
+        if !a.json && !a.wide_only {
             eprintln!("bench analyze [{name}]: {} single sinusoids ...", a.trials);
         }
         let single = (!a.wide_only).then(|| single_sinusoids(a.trials, a.seed, params));
@@ -128,32 +132,7 @@ pub fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
                 }
                 println!("[{name}] mean analysis time per second of audio (mixtures): {secs:.3} s");
             }
-            if !wides.is_empty() {
-                println!("[{name}] protocol 4 (wide: 20 Hz-22 kHz, d 0.1-1000 1/s, doublets, noisy lead-in + DC, 48 kHz):");
-                println!(
-                    "  {:>6} {:>6} {:>7} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>9} {:>7} {:>9}",
-                    "SNR_dB",
-                    "modes",
-                    "recall",
-                    "spurious",
-                    "d>100",
-                    "f<300",
-                    "doublet",
-                    "f/CRB",
-                    "d/CRB",
-                    "onset2ms",
-                    "failed",
-                    "s/s"
-                );
-                for w in &wides {
-                    println!(
-                        "  {:>6.0} {:>6} {:>7.3} {:>9.3} {:>8.3} {:>8.3} {:>8.3} {:>9.2} {:>9.2} {:>9.2} {:>7} {:>9.3}",
-                        w.snr_db, w.reference_modes, w.recall, w.spurious, w.recall_damped, w.recall_low,
-                        w.recall_doublet, w.median_freq_error_over_crb, w.median_damping_error_over_crb,
-                        w.onset_within_2ms, w.failed, w.seconds_per_audio_second
-                    );
-                }
-            }
+            print_wide(name, &wides);
         }
         let m = Some(Method {
             single,
@@ -167,8 +146,61 @@ pub fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
             out.stage1 = m;
         }
     }
+    if !a.no_baseline && !wide_snrs.is_empty() {
+        let mut rows = Vec::new();
+        for &snr in &wide_snrs {
+            if !a.json {
+                eprintln!(
+                    "bench analyze [esprit]: {} wide-range cases at {snr} dB SNR (textbook ESPRIT) ...",
+                    a.wide
+                );
+            }
+            rows.push(crate::analysis::wide_with(snr, a.wide, a.seed + 2, |x, fs| {
+                Some(crate::esprit::textbook_esprit(x, fs))
+            }));
+        }
+        if !a.json {
+            print_wide("esprit", &rows);
+            if let Some(ours) = out.refined.as_ref().filter(|m| m.wide.len() == rows.len()) {
+                println!("[refined vs esprit] same cases, same run:");
+                for (o, e) in ours.wide.iter().zip(&rows) {
+                    println!(
+                        "  {:>4.0} dB: recall {:.3} vs {:.3}, spurious {:.3} vs {:.3}, time {:.2}x the baseline's",
+                        o.snr_db,
+                        o.recall,
+                        e.recall,
+                        o.spurious,
+                        e.spurious,
+                        o.seconds_per_audio_second / e.seconds_per_audio_second.max(1e-12)
+                    );
+                }
+            }
+        }
+        out.esprit = Some(rows);
+    }
     if a.json {
         println!("{}", serde_json::to_string_pretty(&out)?);
     }
     Ok(())
+}
+
+/// Prints the wide protocol's table of one method.
+fn print_wide(name: &str, wides: &[crate::analysis::WideReport]) {
+    if wides.is_empty() {
+        return;
+    }
+    println!("[{name}] protocol 4 (wide: 20 Hz-22 kHz, d 0.1-1000 1/s, doublets, noisy lead-in + DC, 48 kHz):");
+    println!(
+        "  {:>6} {:>6} {:>7} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>9} {:>7} {:>9}",
+        "SNR_dB", "modes", "recall", "spurious", "d>100", "f<300", "doublet", "f/CRB", "d/CRB",
+        "onset2ms", "failed", "s/s"
+    );
+    for w in wides {
+        println!(
+            "  {:>6.0} {:>6} {:>7.3} {:>9.3} {:>8.3} {:>8.3} {:>8.3} {:>9.2} {:>9.2} {:>9.2} {:>7} {:>9.3}",
+            w.snr_db, w.reference_modes, w.recall, w.spurious, w.recall_damped, w.recall_low,
+            w.recall_doublet, w.median_freq_error_over_crb, w.median_damping_error_over_crb,
+            w.onset_within_2ms, w.failed, w.seconds_per_audio_second
+        );
+    }
 }

@@ -156,6 +156,8 @@ pub struct AnalyzeBenchArgs {
     pub wide_snr_db: String,
     /// Run only the wide protocol.
     pub wide_only: bool,
+    /// Skip the textbook ESPRIT baseline rows of the wide protocol.
+    pub no_baseline: bool,
 }
 
 /// Settings of `bench modal`.
