@@ -16,7 +16,6 @@
 //! No amplitude step: the benchmark's measures (recall, spurious, error over CRB) use poles
 //! only, so the baseline is spared that cost.
 
-use faer::{Mat, Side};
 use resound_core::DampedMode;
 
 /// Rows of the Hankel covariance (the ESPRIT aperture, 10.7 ms at 48 kHz).
@@ -42,86 +41,22 @@ pub fn textbook_esprit(x: &[f64], fs: f64) -> (Vec<DampedMode>, f64) {
 }
 
 fn poles(y: &[f64], fs: f64) -> Vec<DampedMode> {
-    let m = ROWS;
-    if y.len() < 3 * m {
-        return Vec::new();
-    }
-    let k = y.len() - m + 1;
-    // R[i][j] = Σ_{n<k} y[n+i] y[n+j] / k: the first row by correlation, the rest by the
-    // shift R[i+1][j+1] = R[i][j] − y[i]y[j] + y[k+i]y[k+j].
-    let mut r = Mat::<f64>::zeros(m, m);
-    for j in 0..m {
-        r[(0, j)] = (0..k).map(|n| y[n] * y[n + j]).sum::<f64>();
-    }
-    for i in 0..m - 1 {
-        for j in i..m - 1 {
-            r[(i + 1, j + 1)] = r[(i, j)] - y[i] * y[j] + y[k + i] * y[k + j];
-        }
-    }
-    for i in 0..m {
-        for j in 0..i {
-            r[(i, j)] = r[(j, i)];
-        }
-    }
-    let Ok(eig) = r.self_adjoint_eigen(Side::Lower) else {
-        return Vec::new();
-    };
-    let s = eig.S().column_vector();
-    // Eigenvalues descending, clamped positive.
-    let lam: Vec<f64> = (0..m).rev().map(|i| s[i].max(1e-300)).collect();
-    let order = mdl_order(&lam, k).min(MAX_ORDER);
-    if order == 0 {
-        return Vec::new();
-    }
-    let u = eig.U();
-    let us = Mat::<f64>::from_fn(m, order, |i, j| u[(i, m - 1 - j)]);
-    let u1 = us.subrows(0, m - 1);
-    let u2 = us.subrows(1, m - 1);
-    let g = u1.transpose() * u1;
-    let rhs = u1.transpose() * u2;
-    let Ok(llt) = g.llt(Side::Lower) else {
-        return Vec::new();
-    };
-    let phi = faer::linalg::solvers::Solve::solve(&llt, &rhs);
-    let Ok(z) = phi.eigenvalues() else {
-        return Vec::new();
-    };
-    let mut out: Vec<DampedMode> = z
-        .into_iter()
-        .filter(|z| z.im > 0.0 && z.norm() > 0.0)
-        .map(|z| DampedMode {
-            freq_hz: z.im.atan2(z.re) * fs / std::f64::consts::TAU,
-            damping_per_s: -z.norm().ln() * fs,
-            amplitude: 1.0,
-            phase_rad: 0.0,
-        })
-        .filter(|m| {
-            resound_signal::plausible(m.freq_hz, m.damping_per_s, fs)
-                && m.damping_per_s < resound_signal::analyze::TRANSIENT_DAMPING_PER_S
-        })
-        .collect();
+    let mut out: Vec<DampedMode> =
+        resound_signal::subspace::fullband_esprit(y, fs, ROWS, MAX_ORDER)
+            .into_iter()
+            .map(|p| DampedMode {
+                freq_hz: p.freq_hz,
+                damping_per_s: p.damping_per_s,
+                amplitude: 1.0,
+                phase_rad: 0.0,
+            })
+            .filter(|m| {
+                resound_signal::plausible(m.freq_hz, m.damping_per_s, fs)
+                    && m.damping_per_s < resound_signal::analyze::TRANSIENT_DAMPING_PER_S
+            })
+            .collect();
     out.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
     out
-}
-
-/// Wax & Kailath's MDL order from eigenvalues `lam` (descending) of a covariance of `snapshots`
-/// rows: the `q` minimising `−snapshots (M−q) ln(geometric / arithmetic mean of the M−q smallest)
-/// + ½ q (2M − q) ln snapshots`.
-pub fn mdl_order(lam: &[f64], snapshots: usize) -> usize {
-    let m = lam.len();
-    let n = snapshots as f64;
-    let mut best = (f64::INFINITY, 0);
-    for q in 0..m.min(MAX_ORDER + 1) {
-        let rest = &lam[q..];
-        let p = rest.len() as f64;
-        let arith = rest.iter().sum::<f64>() / p;
-        let geo = (rest.iter().map(|v| v.ln()).sum::<f64>() / p).exp();
-        let mdl = -n * p * (geo / arith).ln() + 0.5 * q as f64 * (2.0 * m as f64 - q as f64) * n.ln();
-        if mdl < best.0 {
-            best = (mdl, q);
-        }
-    }
-    best.1
 }
 
 #[cfg(test)]
@@ -156,7 +91,11 @@ mod tests {
                 .min_by(|a, b| (a.freq_hz - f).abs().total_cmp(&(b.freq_hz - f).abs()))
                 .expect("a mode");
             assert!((m.freq_hz / f - 1.0).abs() < 1e-3, "{f}: {}", m.freq_hz);
-            assert!((m.damping_per_s / d - 1.0).abs() < 0.2, "{d}: {}", m.damping_per_s);
+            assert!(
+                (m.damping_per_s / d - 1.0).abs() < 0.2,
+                "{d}: {}",
+                m.damping_per_s
+            );
         }
         assert!(found.len() == 3, "{} modes: {found:?}", found.len());
     }
@@ -165,6 +104,6 @@ mod tests {
     fn mdl_counts_the_eigenvalues_above_a_flat_floor() {
         let mut lam = vec![1.0; 64];
         lam[..5].copy_from_slice(&[1e4, 5e3, 800.0, 300.0, 90.0]);
-        assert_eq!(mdl_order(&lam, 10_000), 5);
+        assert_eq!(resound_signal::subspace::mdl_order(&lam, 10_000, 100), 5);
     }
 }

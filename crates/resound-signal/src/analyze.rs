@@ -512,6 +512,17 @@ pub fn analyze(
             }
         }
     }
+    if params.refine && params.subspace && !seeds.is_empty() {
+        // The passes above each end after one sweep against a residual that later passes
+        // changed; two more sweeps and a prune at the final noise drop what no longer stands
+        // above it (spurious modes in `bench analyze --wide`: 0.053 → 0.033 at 60 dB, 0.038 →
+        // 0.029 at 25 dB, at 10 % more time).
+        let refine = RefineParams {
+            sweeps: 2,
+            ..RefineParams::default()
+        };
+        refine_and_prune(seg, sample_rate_hz, &mut seeds, &refine, &mut info, params);
+    }
     let mut modes: Vec<DampedMode> = seeds.iter().map(|s| s.mode).collect();
     let level = |m: &DampedMode| crate::mode_level(m, crate::LEVEL_WINDOW_S);
     modes.sort_by(|a, b| level(b).total_cmp(&level(a)));

@@ -321,6 +321,90 @@ fn esprit(y: &[Complex64], noise_var: f64, max_order: usize, margin: f64) -> Vec
         .collect()
 }
 
+/// Textbook full-band ESPRIT (Roy & Kailath 1989) of a real segment: the `rows × rows`
+/// covariance of its Hankel rows over the whole segment, the model order by MDL
+/// ([`mdl_order`], at most `max_order` complex exponentials), least-squares ESPRIT on the signal
+/// subspace. Returns the poles of positive frequency, unsorted and unfiltered (`strength`: a
+/// signal eigenvalue, ranked as the poles come, over the mean noise eigenvalue — a rough SNR).
+pub fn fullband_esprit(y: &[f64], fs: f64, rows: usize, max_order: usize) -> Vec<Pole> {
+    let m = rows.max(4);
+    if y.len() < 3 * m {
+        return Vec::new();
+    }
+    let k = y.len() - m + 1;
+    // R[i][j] = Σ_{n<k} y[n+i] y[n+j]: the first row by correlation, the rest by the
+    // shift R[i+1][j+1] = R[i][j] − y[i]y[j] + y[k+i]y[k+j].
+    let mut r = Mat::<f64>::zeros(m, m);
+    for j in 0..m {
+        r[(0, j)] = (0..k).map(|n| y[n] * y[n + j]).sum::<f64>();
+    }
+    for i in 0..m - 1 {
+        for j in i..m - 1 {
+            r[(i + 1, j + 1)] = r[(i, j)] - y[i] * y[j] + y[k + i] * y[k + j];
+        }
+    }
+    for i in 0..m {
+        for j in 0..i {
+            r[(i, j)] = r[(j, i)];
+        }
+    }
+    let Ok(eig) = r.self_adjoint_eigen(Side::Lower) else {
+        return Vec::new();
+    };
+    let s = eig.S().column_vector();
+    // Eigenvalues descending, clamped positive.
+    let lam: Vec<f64> = (0..m).rev().map(|i| s[i].max(1e-300)).collect();
+    let order = mdl_order(&lam, k, max_order);
+    if order == 0 {
+        return Vec::new();
+    }
+    let u = eig.U();
+    let us = Mat::<f64>::from_fn(m, order, |i, j| u[(i, m - 1 - j)]);
+    let u1 = us.subrows(0, m - 1);
+    let u2 = us.subrows(1, m - 1);
+    let g = u1.transpose() * u1;
+    let rhs = u1.transpose() * u2;
+    let Ok(llt) = g.llt(Side::Lower) else {
+        return Vec::new();
+    };
+    let phi = faer::linalg::solvers::Solve::solve(&llt, &rhs);
+    let Ok(z) = phi.eigenvalues() else {
+        return Vec::new();
+    };
+    let noise = lam[order..].iter().sum::<f64>() / (m - order) as f64;
+    z.into_iter()
+        .enumerate()
+        .filter(|(_, z)| z.im > 0.0 && z.norm() > 0.0)
+        .map(|(i, z)| Pole {
+            freq_hz: z.im.atan2(z.re) * fs / std::f64::consts::TAU,
+            damping_per_s: -z.norm().ln() * fs,
+            window_s: y.len() as f64 / fs,
+            strength: lam[i.min(order - 1)] / noise.max(1e-300),
+        })
+        .collect()
+}
+
+/// Wax & Kailath's MDL order from eigenvalues `lam` (descending, positive) of a covariance of
+/// `snapshots` rows: the `q ≤ max_order` minimising
+/// `−snapshots (M−q) ln(geometric / arithmetic mean of the M−q smallest) + ½ q (2M − q) ln snapshots`.
+pub fn mdl_order(lam: &[f64], snapshots: usize, max_order: usize) -> usize {
+    let m = lam.len();
+    let n = snapshots as f64;
+    let mut best = (f64::INFINITY, 0);
+    for q in 0..m.min(max_order + 1) {
+        let rest = &lam[q..];
+        let p = rest.len() as f64;
+        let arith = rest.iter().sum::<f64>() / p;
+        let geo = (rest.iter().map(|v| v.ln()).sum::<f64>() / p).exp();
+        let mdl =
+            -n * p * (geo / arith).ln() + 0.5 * q as f64 * (2.0 * m as f64 - q as f64) * n.ln();
+        if mdl < best.0 {
+            best = (mdl, q);
+        }
+    }
+    best.1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -155,9 +155,12 @@ pub fn run_analyze(a: AnalyzeBenchArgs) -> Result<()> {
                     a.wide
                 );
             }
-            rows.push(crate::analysis::wide_with(snr, a.wide, a.seed + 2, |x, fs| {
-                Some(crate::esprit::textbook_esprit(x, fs))
-            }));
+            rows.push(crate::analysis::wide_with(
+                snr,
+                a.wide,
+                a.seed + 2,
+                |x, fs| Some(crate::esprit::textbook_esprit(x, fs)),
+            ));
         }
         if !a.json {
             print_wide("esprit", &rows);
@@ -192,8 +195,18 @@ fn print_wide(name: &str, wides: &[crate::analysis::WideReport]) {
     println!("[{name}] protocol 4 (wide: 20 Hz-22 kHz, d 0.1-1000 1/s, doublets, noisy lead-in + DC, 48 kHz):");
     println!(
         "  {:>6} {:>6} {:>7} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>9} {:>7} {:>9}",
-        "SNR_dB", "modes", "recall", "spurious", "d>100", "f<300", "doublet", "f/CRB", "d/CRB",
-        "onset2ms", "failed", "s/s"
+        "SNR_dB",
+        "modes",
+        "recall",
+        "spurious",
+        "d>100",
+        "f<300",
+        "doublet",
+        "f/CRB",
+        "d/CRB",
+        "onset2ms",
+        "failed",
+        "s/s"
     );
     for w in wides {
         println!(
