@@ -444,9 +444,13 @@ pub(crate) fn levenberg_marquardt(
     let mut jtj = vec![0.0; np * np];
     let mut jtr = vec![0.0; np];
     let mut iterations = 0;
+    // The samples are walked once per trial: an accepted trial's sums are the next
+    // iteration's normal equations.
+    let mut sums = residual_sums(y, &p, sample_rate_hz);
     for _ in 0..max_iterations {
         iterations += 1;
-        let c0 = normal_equations(y, &p, sample_rate_hz, &mut jtj, &mut jtr);
+        assemble(&sums, &p, y.len(), sample_rate_hz, &mut jtj, &mut jtr);
+        let c0 = sums.cost;
         if !(c0 > 0.0) {
             break;
         }
@@ -476,11 +480,8 @@ pub(crate) fn levenberg_marquardt(
             let admissible = trial
                 .chunks(P)
                 .all(|q| crate::plausible(q[0].abs(), q[1], sample_rate_hz));
-            let c1 = if admissible {
-                cost(y, &trial, sample_rate_hz)
-            } else {
-                f64::INFINITY
-            };
+            let trial_sums = admissible.then(|| residual_sums(y, &trial, sample_rate_hz));
+            let c1 = trial_sums.as_ref().map_or(f64::INFINITY, |t| t.cost);
             if c1 < c0 {
                 let rel_step = delta
                     .chunks(P)
@@ -490,6 +491,9 @@ pub(crate) fn levenberg_marquardt(
                     })
                     .fold(0.0, f64::max);
                 p = trial;
+                if let Some(t) = trial_sums {
+                    sums = t;
+                }
                 mu = (mu / 3.0).max(1e-12);
                 improved = true;
                 // Converged when the cost falls by less than 1 % of one sample's noise
@@ -527,16 +531,28 @@ pub(crate) fn normal_equations(
     jtj: &mut [f64],
     jtr: &mut [f64],
 ) -> f64 {
-    let np = p.len();
-    let k = np / P;
+    let sums = residual_sums(y, p, sample_rate_hz);
+    assemble(&sums, p, y.len(), sample_rate_hz, jtj, jtr);
+    sums.cost
+}
+
+/// What the samples give the normal equations at one parameter vector: the cost `Σ r²` and,
+/// per mode, `Σ r zⁿ` and `Σ r t zⁿ`.
+pub(crate) struct ResidualSums {
+    /// `Σ r²`.
+    pub cost: f64,
+    r0: Vec<C64>,
+    r1: Vec<C64>,
+}
+
+/// The one pass over the samples of [`normal_equations`].
+pub(crate) fn residual_sums(y: &[f64], p: &[f64], sample_rate_hz: f64) -> ResidualSums {
+    let k = p.len() / P;
     let dt = 1.0 / sample_rate_hz;
-    let poles = poles_of(p, sample_rate_hz);
     let zero = C64::new(0.0, 0.0);
-    jtj.iter_mut().for_each(|v| *v = 0.0);
-    // Σ r zⁿ and Σ r t zⁿ per mode.
     let mut r0 = vec![zero; k];
     let mut r1 = vec![zero; k];
-    let amps: Vec<C64> = poles.iter().map(|q| q.1).collect();
+    let amps: Vec<C64> = poles_of(p, sample_rate_hz).iter().map(|q| q.1).collect();
     let mut c0 = 0.0;
     let (mut r, mut rt) = ([0.0; BLOCK], [0.0; BLOCK]);
     walk(p, sample_rate_hz, y.len(), |start, len, re, im| {
@@ -551,6 +567,25 @@ pub(crate) fn normal_equations(
             r1[j] += C64::new(dot(&rt[..len], zr), dot(&rt[..len], zi));
         }
     });
+    ResidualSums { cost: c0, r0, r1 }
+}
+
+/// The closed-form part of [`normal_equations`]: `JᵀJ` (upper triangle) from the poles, `Jᵀr`
+/// from the sums.
+fn assemble(
+    sums: &ResidualSums,
+    p: &[f64],
+    len: usize,
+    sample_rate_hz: f64,
+    jtj: &mut [f64],
+    jtr: &mut [f64],
+) {
+    let np = p.len();
+    let k = np / P;
+    let dt = 1.0 / sample_rate_hz;
+    let poles = poles_of(p, sample_rate_hz);
+    let (r0, r1) = (&sums.r0, &sums.r1);
+    jtj.iter_mut().for_each(|v| *v = 0.0);
     // Column coefficients g and powers of t per parameter (f, d, u, v) of mode j.
     let coef = |j: usize| -> [(C64, usize); P] {
         let c = poles[j].1;
@@ -569,8 +604,8 @@ pub(crate) fn normal_equations(
         for l in j..k {
             let h = coef(l);
             let (zj, zl) = (poles[j].0, poles[l].0);
-            let same = power_sums(zj * zl, y.len(), dt);
-            let conj = power_sums(zj * zl.conj(), y.len(), dt);
+            let same = power_sums(zj * zl, len, dt);
+            let conj = power_sums(zj * zl.conj(), len, dt);
             for (a, (ga, pa)) in g.iter().enumerate() {
                 for (b, (gb, pb)) in h.iter().enumerate() {
                     if l == j && b < a {
@@ -583,7 +618,6 @@ pub(crate) fn normal_equations(
             }
         }
     }
-    c0
 }
 
 /// Dot product with four independent accumulators (vectorises).
