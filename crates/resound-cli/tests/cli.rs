@@ -496,10 +496,20 @@ fn bench_analyze_reports_the_protocols() {
             "2",
             "--snr-db",
             "40",
+            "--wide",
+            "3",
+            "--wide-snr-db",
+            "60",
         ],
         dir.path(),
     ));
     let v: Value = serde_json::from_str(&out).unwrap();
+    // The wide protocol and its textbook-ESPRIT baseline run the same cases.
+    let (ours, esprit) = (&v["refined"]["wide"][0], &v["esprit"][0]);
+    assert_eq!(ours["trials"], 3, "{v}");
+    assert_eq!(esprit["trials"], 3, "{v}");
+    assert_eq!(ours["reference_modes"], esprit["reference_modes"], "{v}");
+    assert!(esprit["recall"].as_f64().unwrap() > 0.0, "{v}");
     for method in ["refined", "stage1"] {
         let single = &v[method]["single"];
         assert_eq!(single["trials"], 3);

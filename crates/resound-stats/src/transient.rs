@@ -73,7 +73,7 @@ fn fit_band(db: &[f64], dt: f64, centre: f64, cap_db: f64) -> (f64, f64) {
         .map_or(db.len(), |i| peak + i);
     let pts: Vec<(f64, f64)> = (peak..end).map(|i| (i as f64 * dt, db[i])).collect();
     if pts.len() < 3 {
-        return (top.clamp(ABSENT_DB, cap_db.max(top)), 0.0);
+        return (top.clamp(ABSENT_DB, cap_db.max(top).max(ABSENT_DB)), 0.0);
     }
     let n = pts.len() as f64;
     let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
@@ -83,7 +83,8 @@ fn fit_band(db: &[f64], dt: f64, centre: f64, cap_db: f64) -> (f64, f64) {
     let slope = sxy / sxx.max(1e-300);
     let at_onset = my - slope * (mx + centre);
     (
-        at_onset.clamp(ABSENT_DB, cap_db.max(top)),
+        // A residual that is all below ABSENT_DB (a near-perfect mode fit) is absent.
+        at_onset.clamp(ABSENT_DB, cap_db.max(top).max(ABSENT_DB)),
         (-slope).max(0.0),
     )
 }
@@ -199,6 +200,18 @@ pub fn synthesize_transient(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_band_entirely_below_the_absent_level_is_absent_not_a_panic() {
+        // A decaying band peaking at −123 dB with the signal's own peak below −120 dB (what a
+        // near-perfect mode fit leaves as residual).
+        let db: Vec<f64> = (0..40).map(|i| -123.0 - 2.0 * i as f64).collect();
+        let (onset, decay) = fit_band(&db, 0.01, 0.02, -121.0);
+        assert_eq!(onset, ABSENT_DB);
+        assert!(decay >= 0.0);
+        let (onset, _) = fit_band(&db[..2], 0.01, 0.02, -121.0);
+        assert_eq!(onset, ABSENT_DB);
+    }
 
     #[test]
     fn the_transient_alone_decays_at_the_fitted_rates() {
