@@ -508,10 +508,12 @@ def test_statistics_fit_from_python_as_the_cli_and_pyimpact_tables_import(model,
         rec = np.concatenate([np.zeros(2000), 0.5 * x / np.abs(x).max()])
         files.append(tmp_path / f"plastic{k}.wav")
         write_wav16(files[-1], rec, fs)
-    s = resound.fit_stats(files, "plastic", modes=6)
-    assert s.name == "plastic" and s.modes == 6
+    # Four modes: this small box's plastic modes are heavily damped and overlap (d 500-1400
+    # 1/s, lines hundreds of Hz wide), so analysis separates only a few in some strikes.
+    s = resound.fit_stats(files, "plastic", modes=4)
+    assert s.name == "plastic" and s.modes == 4
     s.save(tmp_path / "py.stats.json")
-    out = cli("stats", "fit", *map(str, files), "--material", "plastic", "--modes", "6",
+    out = cli("stats", "fit", *map(str, files), "--material", "plastic", "--modes", "4",
               "-o", "cli.stats.json", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     assert json.loads((tmp_path / "py.stats.json").read_text()) == \
