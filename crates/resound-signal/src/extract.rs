@@ -482,7 +482,7 @@ fn fit_group(
         v[i] += if i % 2 == 0 { 0.3 * bw } else { 0.7 };
         simplex.push(v);
     }
-    let solver = NelderMead::new(simplex).with_sd_tolerance(1e-8).ok()?;
+    let solver = NelderMead::new(simplex).with_sd_tolerance(1e-10).ok()?;
     let res = Executor::new(PatchCost(&patch), solver)
         .configure(|s| s.max_iters(150 * bins.len() as u64))
         .run()
