@@ -515,8 +515,8 @@ pub fn analyze(
     if params.refine && params.subspace && !seeds.is_empty() {
         // The passes above each end after one sweep against a residual that later passes
         // changed; two more sweeps and a prune at the final noise drop what no longer stands
-        // above it (spurious modes in `bench analyze --wide`: 0.053 → 0.033 at 60 dB, 0.038 →
-        // 0.029 at 25 dB, at 10 % more time). The result is kept by the Bayesian information
+        // above it (fewer spurious modes in `bench analyze --wide`, at about 10 % more time).
+        // The result is kept by the Bayesian information
         // criterion: each mode fewer may raise the squared error by at most 4 ln N σ² (four
         // parameters), so a sweep that pushes real modes out of range (a plastic's fast
         // decays over the transient limit) is undone.
