@@ -1,10 +1,11 @@
 //! Lists, case by case, the modes the wide analysis protocol misses and the spurious ones it
-//! reports (a diagnostic beside `resound bench analyze`):
+//! reports (a diagnostic beside `resound bench analyze`; `R` marks the modes its recall counts):
 //! `cargo run --release -p resound-bench --example wide_diag -- SNR_DB CASES`.
 use rand::rngs::SmallRng;
 use rand::SeedableRng;
 use resound_bench::analysis::{match_modes, wide_case, WIDE_FS};
 use resound_core::DampedMode;
+use resound_signal::crb::cramer_rao;
 use resound_signal::{analyze, mode_level, AnalyzeParams, LEVEL_WINDOW_S};
 
 fn main() {
@@ -13,8 +14,12 @@ fn main() {
     let n: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(10);
     let mut rng = SmallRng::seed_from_u64(3);
     let level = |m: &DampedMode| mode_level(m, LEVEL_WINDOW_S);
+    let only: Option<usize> = args.get(3).and_then(|s| s.parse().ok());
     for c in 0..n {
         let case = wide_case(&mut rng, snr);
+        if only.is_some_and(|o| o != c) {
+            continue;
+        }
         let a = match analyze(&case.signal, WIDE_FS, &AnalyzeParams::default()) {
             Ok(a) => a,
             Err(e) => {
@@ -22,8 +27,19 @@ fn main() {
                 continue;
             }
         };
-        let m = match_modes(&case.modes, &a.modes, None);
+        let n_strike = case.signal.len() - case.onset;
+        let bounds = cramer_rao(&case.modes, WIDE_FS, n_strike, case.sigma.max(1e-12));
+        let m = match_modes(&case.modes, &a.modes, bounds.as_deref());
         let top = case.modes.iter().map(level).fold(0.0, f64::max);
+        // The benchmark's reference modes: within 60 dB of the strongest and Σ s² ≥ 100 σ².
+        let reference = |t: &DampedMode| {
+            let energy = t.amplitude
+                * t.amplitude
+                * WIDE_FS
+                * (-(-2.0 * t.damping_per_s * n_strike as f64 / WIDE_FS).exp_m1())
+                / (4.0 * t.damping_per_s);
+            level(t) >= top * 1e-3 && energy >= 100.0 * case.sigma * case.sigma
+        };
         println!(
             "case {c}: {} true, {} found, onset error {:.2} ms",
             case.modes.len(),
@@ -38,8 +54,9 @@ fn main() {
                 )
             });
             println!(
-                "  {} f {:9.2} d {:8.2} level {:6.1} dB {found}",
+                "  {}{} f {:9.2} d {:8.2} level {:6.1} dB {found}",
                 if m[i].is_some() { " " } else { "X" },
+                if reference(t) { "R" } else { " " },
                 t.freq_hz,
                 t.damping_per_s,
                 20.0 * (level(t) / top).log10()

@@ -399,8 +399,16 @@ pub fn analyze(
         .collect();
     extract_s += t0.elapsed().as_secs_f64();
     let mut info = RefineInfo::default();
+    // The residual's spread overstates the noise while modes are still missing from the
+    // model; the lead-in measures it directly.
+    let lead_in_rms = (conditioning.noise_from == "lead-in")
+        .then(|| 10f64.powf(conditioning.noise_floor_dbfs / 20.0));
+    let base = RefineParams {
+        noise_rms: lead_in_rms,
+        ..RefineParams::default()
+    };
     if params.refine && !seeds.is_empty() {
-        let mut refine = RefineParams::default();
+        let mut refine = base.clone();
         for round in 0..params.rounds.max(1) {
             if round > 0 {
                 // Earlier modes are converged; one pass places the new ones among them.
@@ -445,7 +453,7 @@ pub fn analyze(
     {
         let refine = RefineParams {
             sweeps: 1,
-            ..RefineParams::default()
+            ..base.clone()
         };
         refine_and_prune(seg, sample_rate_hz, &mut seeds, &refine, &mut info, params);
     }
@@ -458,10 +466,6 @@ pub fn analyze(
         r.iter().map(|v| v * v).sum::<f64>()
     };
     if params.refine && params.subspace && !seeds.is_empty() {
-        // The residual's spread overstates the noise while modes are still missing from the
-        // model; the lead-in measures it directly.
-        let lead_in_rms = (conditioning.noise_from == "lead-in")
-            .then(|| 10f64.powf(conditioning.noise_floor_dbfs / 20.0));
         for _pass in 0..2 {
             let noise = lead_in_rms.map_or(info.noise_rms, |r| r.min(info.noise_rms));
             // A pass that does not fit the segment better is undone (a pole LM drove somewhere
@@ -475,13 +479,13 @@ pub fn analyze(
             }
             let refine = RefineParams {
                 sweeps: 2,
-                ..RefineParams::default()
+                ..base.clone()
             };
             refine_and_prune(seg, sample_rate_hz, &mut seeds, &refine, &mut info, params);
             if crate::refine::merge_all_duplicates(&mut seeds, seg.len() as f64 / sample_rate_hz) {
                 let once = RefineParams {
                     sweeps: 1,
-                    ..RefineParams::default()
+                    ..base.clone()
                 };
                 refine_and_prune(seg, sample_rate_hz, &mut seeds, &once, &mut info, params);
             }
@@ -503,7 +507,7 @@ pub fn analyze(
         if split_beating(seg, sample_rate_hz, &mut seeds, noise) {
             let once = RefineParams {
                 sweeps: 1,
-                ..RefineParams::default()
+                ..base.clone()
             };
             refine_and_prune(seg, sample_rate_hz, &mut seeds, &once, &mut info, params);
             if rss(&seeds) >= kept_rss {
@@ -523,7 +527,7 @@ pub fn analyze(
         let (kept, kept_info, kept_rss) = (seeds.clone(), info.clone(), rss(&seeds));
         let refine = RefineParams {
             sweeps: 2,
-            ..RefineParams::default()
+            ..base.clone()
         };
         refine_and_prune(seg, sample_rate_hz, &mut seeds, &refine, &mut info, params);
         let fewer = kept.len().saturating_sub(seeds.len()) as f64;
@@ -534,7 +538,14 @@ pub fn analyze(
             info = kept_info;
         }
     }
-    let mut modes: Vec<DampedMode> = seeds.iter().map(|s| s.mode).collect();
+    // Below the high-pass cut-off the filter's own response (its edge transients on rumble)
+    // is what a pole fits there, not the object.
+    let cut_hz = conditioning.highpass.hz().unwrap_or(0.0);
+    let mut modes: Vec<DampedMode> = seeds
+        .iter()
+        .map(|s| s.mode)
+        .filter(|m| m.freq_hz >= cut_hz)
+        .collect();
     let level = |m: &DampedMode| crate::mode_level(m, crate::LEVEL_WINDOW_S);
     modes.sort_by(|a, b| level(b).total_cmp(&level(a)));
     modes.truncate(params.max_modes);
@@ -869,8 +880,9 @@ fn least_squares_amplitudes(
 /// neighbourhood in the residual stands 1.5× above the noise, `crb::NoiseProfile`) is tried
 /// as two poles, from two spacings (0.4 and 1.2 over the window); the pair replaces
 /// it when it lowers the squared error by more than the Bayesian information criterion asks
-/// for four more parameters (4 ln N σ² at the local noise) and both members carry at least a
-/// tenth of the pair's amplitude. Returns whether any mode was split.
+/// for four more parameters (4 ln N σ², σ the residual's level beside the mode — at the mode
+/// its own misfit dominates it — and never below the broadband noise) and both members carry
+/// at least a tenth of the pair's amplitude. Returns whether any mode was split.
 fn split_beating(seg: &[f64], fs: f64, seeds: &mut Vec<Seed>, noise_rms: f64) -> bool {
     if seeds.is_empty() || !(noise_rms > 0.0) {
         return false;
@@ -934,8 +946,15 @@ fn split_beating(seg: &[f64], fs: f64, seeds: &mut Vec<Seed>, noise_rms: f64) ->
                 best = Some((c2, [pair[0], pair[1]]));
             }
         }
+        // The noise the criterion weighs against: the residual beside the mode (its own misfit
+        // dominates the residual at it), never below the broadband noise.
+        let side = 2.0 * (0.02 * m.freq_hz).max(25.0) + m.damping_per_s / std::f64::consts::PI;
+        let beside = profile
+            .rms_at(m.freq_hz - side)
+            .min(profile.rms_at(m.freq_hz + side));
+        let floor = beside.max(noise_rms).min(local);
         if let Some((c2, pair)) = best {
-            if c1 - c2 > 4.0 * (n as f64).ln() * local * local {
+            if c1 - c2 > 4.0 * (n as f64).ln() * floor * floor {
                 add_mode(&m, fs, 1.0, &mut residual);
                 for p in &pair {
                     add_mode(p, fs, -1.0, &mut residual);

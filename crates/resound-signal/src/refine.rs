@@ -24,6 +24,9 @@ pub struct RefineParams {
     pub sweeps: usize,
     /// Largest number of modes fitted jointly.
     pub max_cluster: usize,
+    /// The noise's standard deviation when it was measured apart from the modes (on a lead-in);
+    /// the residual's robust spread, which unfitted modes inflate, bounds it otherwise.
+    pub noise_rms: Option<f64>,
 }
 
 impl Default for RefineParams {
@@ -32,6 +35,7 @@ impl Default for RefineParams {
             max_iterations: 30,
             sweeps: 3,
             max_cluster: 4,
+            noise_rms: None,
         }
     }
 }
@@ -78,6 +82,15 @@ pub fn robust_rms(r: &[f64]) -> f64 {
 
 /// Refines `seeds` in place against `x` (sample 0 = onset); returns the final residual
 /// `x − Σ modes` and the info.
+///
+/// Each cluster of overlapping modes is fitted jointly (Levenberg–Marquardt on growing windows).
+/// Two modes of a cluster closer than half their mean line width are tried as one; the pair
+/// stays when it is credible (a tenth of the resolution apart, neither member below a tenth of
+/// the other nor above four times the data's peak) and fits better by more than the Bayesian
+/// information criterion asks (4 ln N σ² per removed mode, σ the smaller of
+/// [`RefineParams::noise_rms`] and the residual's robust spread) and by at least a fifth of the
+/// merged fit's squared error (the cluster's target also holds the misfit of other clusters,
+/// which a spare pole would otherwise absorb).
 pub fn refine_modes(
     x: &[f64],
     sample_rate_hz: f64,
@@ -140,13 +153,36 @@ pub fn refine_modes(
                 info.iterations +=
                     levenberg_marquardt(&target[..len], sample_rate_hz, &mut modes, iters);
                 if len == full {
-                    if merge_duplicates(&mut modes, len as f64 / sample_rate_hz) {
+                    modes.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+                    let mut merged = modes.clone();
+                    if merge_duplicates(&mut merged, len as f64 / sample_rate_hz) {
                         info.iterations += levenberg_marquardt(
                             &target[..len],
                             sample_rate_hz,
-                            &mut modes,
+                            &mut merged,
                             params.max_iterations,
                         );
+                        // Closer than half a line width is not yet the same pole: a pair the
+                        // data tell apart (the Bayesian information criterion: each removed
+                        // mode may raise the squared error by 4 ln N σ²) stays a pair.
+                        let sigma = params
+                            .noise_rms
+                            .filter(|r| *r > 0.0)
+                            .map_or(info.noise_rms, |r| r.min(info.noise_rms));
+                        let var = sigma * sigma;
+                        let removed = (modes.len() - merged.len()) as f64;
+                        let y = &target[..len];
+                        let (c_pair, c_one) = (
+                            cost(y, &to_params(&modes), sample_rate_hz),
+                            cost(y, &to_params(&merged), sample_rate_hz),
+                        );
+                        let apart = c_pair + removed * 4.0 * (len as f64).ln() * var < c_one
+                            && c_pair < 0.8 * c_one;
+                        let top = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                        let window_s = len as f64 / sample_rate_hz;
+                        if !(apart && resolved_pairs(&modes, window_s, top)) {
+                            modes = merged;
+                        }
                     }
                     break;
                 }
@@ -190,16 +226,14 @@ pub fn refine_modes(
 
 /// Replaces pairs of modes closer than the resolution of the window (or than a quarter of
 /// their line widths) by one mode carrying their summed complex amplitude. Returns whether any
-/// pair was merged.
+/// pair was merged. [`refine_modes`] keeps a pair the data tell apart instead.
 pub(crate) fn merge_duplicates(modes: &mut Vec<DampedMode>, window_s: f64) -> bool {
     let mut merged = false;
     let mut i = 0;
     while i + 1 < modes.len() {
         modes.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
         let (a, b) = (modes[i], modes[i + 1]);
-        let close =
-            0.25 / window_s + (a.damping_per_s + b.damping_per_s) / (4.0 * std::f64::consts::PI);
-        if b.freq_hz - a.freq_hz < close {
+        if b.freq_hz - a.freq_hz < duplicate_gap(&a, &b, window_s) {
             let za = realfft::num_complex::Complex64::from_polar(a.amplitude, a.phase_rad);
             let zb = realfft::num_complex::Complex64::from_polar(b.amplitude, b.phase_rad);
             let (wa, wb) = (a.amplitude, b.amplitude);
@@ -218,6 +252,29 @@ pub(crate) fn merge_duplicates(modes: &mut Vec<DampedMode>, window_s: f64) -> bo
         }
     }
     merged
+}
+
+/// Whether every pair of neighbours (by frequency) in `modes` that [`merge_duplicates`] would
+/// merge is a credible pair of poles: at least a tenth of the window's resolution apart, the
+/// weaker carrying a tenth of the stronger's amplitude, neither above four times the `peak` of
+/// the data (two near-equal poles of huge opposite amplitudes model an envelope, not modes).
+fn resolved_pairs(modes: &[DampedMode], window_s: f64, peak: f64) -> bool {
+    let mut sorted = modes.to_vec();
+    sorted.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    sorted.windows(2).all(|w| {
+        let (a, b) = (&w[0], &w[1]);
+        let gap = b.freq_hz - a.freq_hz;
+        gap >= duplicate_gap(a, b, window_s)
+            || (gap > 0.1 / window_s
+                && a.amplitude.min(b.amplitude) > 0.1 * a.amplitude.max(b.amplitude)
+                && a.amplitude.max(b.amplitude) <= 4.0 * peak)
+    })
+}
+
+/// Below this frequency gap two modes count as duplicates in [`merge_duplicates`]: a quarter of
+/// the window's resolution plus half their mean line width.
+fn duplicate_gap(a: &DampedMode, b: &DampedMode, window_s: f64) -> f64 {
+    0.25 / window_s + (a.damping_per_s + b.damping_per_s) / (4.0 * std::f64::consts::PI)
 }
 
 /// Near-duplicate merging (as inside a cluster) over a whole seed list (after all rounds); returns whether any pair
