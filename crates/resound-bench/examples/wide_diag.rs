@@ -64,11 +64,17 @@ fn main() {
         }
         for (j, f) in a.modes.iter().enumerate() {
             if !m.contains(&Some(j)) {
+                let energy = f.amplitude
+                    * f.amplitude
+                    * WIDE_FS
+                    * (-(-2.0 * f.damping_per_s * n_strike as f64 / WIDE_FS).exp_m1())
+                    / (4.0 * f.damping_per_s);
                 println!(
-                    "  spurious f {:9.2} d {:8.2} level {:6.1} dB",
+                    "  spurious f {:9.2} d {:8.2} level {:6.1} dB energy {:7.1} σ²",
                     f.freq_hz,
                     f.damping_per_s,
-                    20.0 * (level(f) / top).log10()
+                    20.0 * (level(f) / top).log10(),
+                    energy / (case.sigma * case.sigma)
                 );
             }
         }
