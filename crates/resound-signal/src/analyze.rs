@@ -540,12 +540,28 @@ pub fn analyze(
     }
     // Below the high-pass cut-off the filter's own response (its edge transients on rumble)
     // is what a pole fits there, not the object.
+    // They are left out, and said so: a real low mode under a cut-off set too high is lost
+    // with them, and the user is the one who can lower it.
     let cut_hz = conditioning.highpass.hz().unwrap_or(0.0);
-    let mut modes: Vec<DampedMode> = seeds
+    let (mut modes, below): (Vec<DampedMode>, Vec<DampedMode>) = seeds
         .iter()
         .map(|s| s.mode)
-        .filter(|m| m.freq_hz >= cut_hz)
-        .collect();
+        .partition(|m| m.freq_hz >= cut_hz);
+    if !below.is_empty() {
+        let freqs: Vec<String> = below
+            .iter()
+            .map(|m| format!("{:.1} Hz", m.freq_hz))
+            .collect();
+        warnings.push(Warning::new(
+            WarningKind::Input,
+            format!(
+                "{} mode(s) below the {:.0} Hz high-pass ({}) were left out: under the cut-off a fit follows the filter's response, not the object; lower the high-pass if the object sounds there",
+                below.len(),
+                cut_hz,
+                freqs.join(", ")
+            ),
+        ));
+    }
     let level = |m: &DampedMode| crate::mode_level(m, crate::LEVEL_WINDOW_S);
     modes.sort_by(|a, b| level(b).total_cmp(&level(a)));
     modes.truncate(params.max_modes);

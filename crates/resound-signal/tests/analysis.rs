@@ -198,6 +198,62 @@ fn highpass_removes_rumble_and_keeps_modes() {
 }
 
 #[test]
+fn modes_under_the_highpass_are_left_out_with_a_warning() {
+    // A real 70 Hz mode under a 100 Hz high-pass: it is not reported, and the report says so.
+    let truth = [mode(70.0, 3.0, 0.5, 0.0), mode(1500.0, 10.0, 0.2, 0.5)];
+    let x = synthesize(&truth, FS, 44100);
+    let params = AnalyzeParams {
+        highpass_hz: Some(100.0),
+        ..AnalyzeParams::default()
+    };
+    let res = analyze(&x, FS, &params).unwrap();
+    assert!(
+        res.modes.iter().all(|m| m.freq_hz >= 100.0),
+        "{:?}",
+        res.modes
+    );
+    let w = res
+        .warnings
+        .iter()
+        .find(|w| w.kind == resound_core::WarningKind::Input && w.message.contains("high-pass"))
+        .unwrap_or_else(|| panic!("no warning: {:?}", res.warnings));
+    assert!(w.message.contains("100 Hz"), "{}", w.message);
+    let named: Vec<f64> = w
+        .message
+        .split(['(', ',', ')'])
+        .filter_map(|t| t.trim().strip_suffix(" Hz")?.parse().ok())
+        .collect();
+    assert!(
+        named.iter().any(|f| (f - 70.0).abs() < 2.0),
+        "{}",
+        w.message
+    );
+    // Without a high-pass the same mode is reported and nothing is said about a cut-off.
+    let open = analyze(
+        &x,
+        FS,
+        &AnalyzeParams {
+            highpass_hz: None,
+            auto_highpass: false,
+            ..AnalyzeParams::default()
+        },
+    )
+    .unwrap();
+    assert!(
+        (nearest(&open.modes, 70.0).freq_hz - 70.0).abs() < 0.1,
+        "{:?}",
+        open.modes
+    );
+    assert!(
+        open.warnings
+            .iter()
+            .all(|w| !w.message.contains("high-pass")),
+        "{:?}",
+        open.warnings
+    );
+}
+
+#[test]
 fn several_strikes_warn_and_can_be_chosen() {
     let a = synthesize(&[mode(600.0, 40.0, 0.5, 0.0)], FS, 13230);
     let b = synthesize(&[mode(2500.0, 40.0, 0.4, 0.0)], FS, 13230);
