@@ -235,6 +235,10 @@ bench_args! {
         /// report the speed-up ratio measured in the same run (0: off).
         #[arg(default_value_t = 0)]
         compare_up_to: usize,
+        /// Also solve each case's K, M with scipy's eigsh in shift-invert mode (CHOLMOD from
+        /// scikit-sparse when installed, else SuperLU) in the same run: time, memory, ratio
+        /// and frequency agreement. Needs python3 with scipy.
+        peer: bool,
     }
 }
 
@@ -251,6 +255,8 @@ bench_args! {
         sturm: bool,
         /// Use faer's single-vector Lanczos instead of block Lanczos.
         faer_lanczos: bool,
+        /// After the solve, write K.mtx and M.mtx into this folder and list every frequency.
+        export: Option<std::path::PathBuf>,
     }
 }
 

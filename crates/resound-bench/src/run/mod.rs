@@ -176,6 +176,8 @@ pub struct ModalBenchArgs {
     /// Also run faer's single-vector Lanczos (the baseline) on cases up to this many DOFs and
     /// report the speed-up ratio measured in the same run (0: off).
     pub compare_up_to: usize,
+    /// Also run the scipy peer (`peer/modal_peer.py`) on each case's matrices.
+    pub peer: bool,
 }
 
 /// One case (hidden subcommand).
@@ -191,6 +193,8 @@ pub struct CaseArgs {
     pub sturm: bool,
     /// Use faer's single-vector Lanczos instead of block Lanczos.
     pub faer_lanczos: bool,
+    /// Write K.mtx and M.mtx here after the solve and list every frequency.
+    pub export: Option<std::path::PathBuf>,
 }
 
 fn bench_mesh(name: &str) -> Result<(SurfaceMesh, Material)> {
@@ -262,6 +266,12 @@ pub fn run_case(a: CaseArgs) -> Result<()> {
     .solve()?;
     let (model, info) = (solved.model, solved.info);
     let total_s = t0.elapsed().as_secs_f64();
+    // The matrices go out after the clock stopped: the peer solves the very same problem.
+    if let Some(dir) = &a.export {
+        std::fs::create_dir_all(dir)?;
+        resound::io::mtx::write_symmetric(&dir.join("K.mtx"), fem.k.as_ref(), "stiffness K (N/m)")?;
+        resound::io::mtx::write_symmetric(&dir.join("M.mtx"), fem.m.as_ref(), "mass M (kg)")?;
+    }
     let v = ModalCase {
         mesh: a.mesh.clone(),
         method: if a.faer_lanczos {
@@ -290,6 +300,12 @@ pub fn run_case(a: CaseArgs) -> Result<()> {
         f_last_hz: model.freqs_hz().last().copied(),
         baseline_faer_lanczos_total_s: None,
         speedup_vs_faer_lanczos: None,
+        freqs_hz: if a.export.is_some() {
+            model.freqs_hz().to_vec()
+        } else {
+            Vec::new()
+        },
+        peer: None,
     };
     println!("{}", serde_json::to_string(&v)?);
     Ok(())
@@ -344,6 +360,34 @@ pub struct ModalCase {
     /// Baseline time over ours.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub speedup_vs_faer_lanczos: Option<f64>,
+    /// Every elastic frequency, Hz (only when the matrices were exported for the peer).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub freqs_hz: Vec<f64>,
+    /// The scipy peer on the same matrices, in the same run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peer: Option<PeerRow>,
+}
+
+/// The scipy peer (`peer/modal_peer.py`) on one case's exported K, M.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PeerRow {
+    /// What solved it: scipy's version and the factorization (cholmod or superlu).
+    pub solver: String,
+    /// Factorization of K − σM, s.
+    pub factor_s: f64,
+    /// Factorization and eigsh, s (reading the files not counted).
+    pub total_s: f64,
+    /// Peak resident memory of the peer's process (files read in included), MiB.
+    pub peak_rss_mib: f64,
+    /// The peer's time over ours (our time includes discretization and assembly).
+    #[serde(default)]
+    pub speedup: f64,
+    /// Largest relative difference of an elastic frequency, ours against the peer's.
+    #[serde(default)]
+    pub max_rel_freq_diff: f64,
+    /// Every frequency the peer found, Hz (rigid modes first).
+    #[serde(default, skip_serializing)]
+    pub freqs_hz: Vec<f64>,
 }
 
 fn run_child(
@@ -353,6 +397,7 @@ fn run_child(
     modes: usize,
     sturm: bool,
     faer: bool,
+    export: Option<&std::path::Path>,
 ) -> Result<ModalCase> {
     let mut cmd = Command::new(exe);
     cmd.args([
@@ -369,6 +414,9 @@ fn run_child(
     }
     if faer {
         cmd.arg("--faer-lanczos");
+    }
+    if let Some(dir) = export {
+        cmd.arg("--export").arg(dir);
     }
     let out = cmd.output().context("running a benchmark case")?;
     if !out.status.success() {
