@@ -3,8 +3,8 @@
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use resound::grain_files::{
-    analyze_to_file, load_recordings, parse_kind, recording_spec, resynthesize_for_file, summary,
-    KindRule,
+    analyze_to_file, expand_recording_specs, load_recordings, parse_kind, recording_spec,
+    resynthesize_for_file, summary, KindRule,
 };
 use resound::grains::resynth::ResynthParams;
 use resound::grains::AnalyzeParams;
@@ -25,7 +25,8 @@ pub enum GrainsCmd {
 #[derive(Args, Debug)]
 pub struct AnalyzeArgs {
     /// Recordings (WAV, FLAC, OGG, MP3; channels are mixed). Prefix one with `impact:`,
-    /// `rolling:`, `sliding:` or `continuous:` to set its kind.
+    /// `rolling:`, `sliding:` or `continuous:` to set its kind; wildcards behind a prefix
+    /// (`impact:hit*.wav`, which no shell expands) are expanded here.
     #[arg(required = true)]
     pub recordings: Vec<String>,
     /// Kind of the recordings without a prefix: auto, impact, rolling, sliding or continuous.
@@ -98,9 +99,10 @@ fn kind_rule(s: &str) -> Result<KindRule> {
 pub fn run(c: GrainsCmd) -> Result<()> {
     match c {
         GrainsCmd::Analyze(a) => {
-            let inputs = a.recordings.iter().map(|r| recording_spec(r, a.kind).1);
+            let specs = expand_recording_specs(&a.recordings)?;
+            let inputs = specs.iter().map(|r| recording_spec(r, a.kind).1);
             crate::util::check_paths(inputs, [&a.output])?;
-            let (recs, fs, _) = load_recordings(&a.recordings, a.kind, a.sample_rate)?;
+            let (recs, fs, _) = load_recordings(&specs, a.kind, a.sample_rate)?;
             let mut params = AnalyzeParams::default();
             params.segment.min_db = a.min_db;
             params.pattern.peaks_per_part = a.peaks;

@@ -1151,6 +1151,46 @@ fn pyimpact_tables_import_and_render_their_own_frequencies() {
     );
 }
 
+/// Issue 37: no shell expands `impact:hit*.ogg` (the prefix is part of the word): the tool
+/// does, keeping the kind on every match, and a pattern that matches nothing is an error.
+#[test]
+fn grains_expand_wildcards_behind_a_kind_prefix() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/recordings");
+    for (src, dst) in [
+        ("default_dug_metal.1.ogg", "hit1.ogg"),
+        ("default_place_node_metal.1.ogg", "hit2.ogg"),
+        ("default_dig_choppy.1.ogg", "other.ogg"),
+    ] {
+        std::fs::copy(assets.join(src), d.join(dst)).unwrap();
+    }
+    let v: Value = serde_json::from_str(&ok(&resound(
+        &[
+            "grains",
+            "analyze",
+            "impact:hit*.ogg",
+            "-o",
+            "g.grains",
+            "--json",
+        ],
+        d,
+    )))
+    .unwrap();
+    let recs = v["recordings"].as_array().unwrap();
+    let names: Vec<&str> = recs.iter().map(|r| r["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["hit1", "hit2"], "{v}");
+    assert!(recs.iter().all(|r| r["contact"] == "impact"), "{v}");
+    fails_with(
+        &resound(
+            &["grains", "analyze", "impact:nohit*.ogg", "-o", "n.grains"],
+            d,
+        ),
+        "matches no file",
+    );
+    assert!(!d.join("n.grains").exists());
+}
+
 #[test]
 fn grains_analyze_resynth_and_drive_a_scene() {
     let dir = tempfile::tempdir().unwrap();

@@ -28,6 +28,45 @@ pub fn recording_spec(spec: &str, rule: KindRule) -> (KindRule, &Path) {
     }
 }
 
+/// Expands the wildcards (`*`, `?`, `[…]`) of recording specs, with or without a `KIND:`
+/// prefix: no shell expands `impact:hit*.wav` (the prefix is part of the word), so the
+/// tool does, in name order, keeping the prefix on every match. A spec naming an existing
+/// file is kept as it is.
+///
+/// # Errors
+/// A pattern that is malformed or matches no file.
+pub fn expand_recording_specs(specs: &[String]) -> Result<Vec<String>> {
+    let mut out = Vec::with_capacity(specs.len());
+    for spec in specs {
+        let (prefix, path) = match spec.split_once(':') {
+            Some((p, rest)) if parse_kind(p).is_some() => (Some(p), rest),
+            _ => (None, spec.as_str()),
+        };
+        if Path::new(spec).exists() || !path.contains(['*', '?', '[']) {
+            out.push(spec.clone());
+            continue;
+        }
+        let paths =
+            glob::glob(path).map_err(|e| invalid(format!("recording pattern '{spec}': {e}")))?;
+        let mut found: Vec<String> = paths
+            .filter_map(std::result::Result::ok)
+            .filter(|p| p.is_file())
+            .map(|p| p.to_string_lossy().into_owned())
+            .collect();
+        if found.is_empty() {
+            return Err(invalid(format!(
+                "recording pattern '{spec}' matches no file"
+            )));
+        }
+        found.sort();
+        out.extend(found.into_iter().map(|p| match prefix {
+            Some(k) => format!("{k}:{p}"),
+            None => p,
+        }));
+    }
+    Ok(out)
+}
+
 /// Parses a contact kind name (`impact`, `rolling`, `sliding`, `continuous`, `auto`).
 pub fn parse_kind(name: &str) -> Option<KindRule> {
     Some(match name.to_ascii_lowercase().as_str() {
@@ -85,6 +124,7 @@ pub fn load_recordings(
             )));
         }
     }
+    let specs = &expand_recording_specs(specs)?;
     let mut out = Vec::new();
     let mut fs: Option<u32> = rate;
     let mut bytes = 0usize;
