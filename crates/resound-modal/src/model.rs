@@ -420,6 +420,17 @@ fn solve_fem(
             ));
         }
     }
+    if let (Some(from), Some(&last)) = (einfo.truncated_from, keep.last()) {
+        info.warnings.push(Warning::new(
+            WarningKind::Model,
+            format!(
+                "only the lowest {} of the {} modes asked for met the residual tolerance (up to {:.0} Hz): the higher ones are left out (ask for at most that many modes to avoid this)",
+                keep.len(),
+                from.saturating_sub(info.rigid_modes),
+                units::lambda_to_freq_hz(lambdas[last])
+            ),
+        ));
+    }
     if einfo.capped {
         info.warnings.push(Warning::new(
             WarningKind::Model,

@@ -113,17 +113,34 @@ pub fn load_object(
     params: &ObjectParams,
     progress: ProgressFn<'_>,
 ) -> Result<ModalModel> {
-    let model = if is_model_file(path) {
-        model_file::load(path)?
+    let (model, warnings) = load_object_warned(path, params, progress)?;
+    for w in warnings {
+        progress(crate::Progress::Warning(w));
+    }
+    Ok(model)
+}
+
+/// [`load_object`] that returns the solve's warnings (modes left out, a mechanism) instead
+/// of sending them to `progress`, for reports that list them.
+///
+/// # Errors
+/// As [`load_object`].
+pub fn load_object_warned(
+    path: &Path,
+    params: &ObjectParams,
+    progress: ProgressFn<'_>,
+) -> Result<(ModalModel, Vec<resound_core::Warning>)> {
+    let (model, warnings) = if is_model_file(path) {
+        (model_file::load(path)?, Vec::new())
     } else {
-        solve_mesh_file(
+        let solved = solve_mesh_file(
             path,
             params.scale,
             &params.reference_material,
             &params.modal,
             progress,
-        )?
-        .model
+        )?;
+        (solved.model, solved.info.warnings)
     };
     if model.eigenvalues.is_empty() {
         return Err(crate::error::invalid(format!(
@@ -131,7 +148,7 @@ pub fn load_object(
             path.display()
         )));
     }
-    Ok(model)
+    Ok((model, warnings))
 }
 
 /// Solves a closed surface given as arrays: `vertices` (m, before `params.scale`) and

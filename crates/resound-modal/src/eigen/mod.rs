@@ -176,6 +176,9 @@ pub struct EigenInfo {
     /// True when block Lanczos ran a second time with stricter settings because the final
     /// residual check of the first run failed.
     pub retried: bool,
+    /// The pairs wanted when only the lowest of them met the tolerance and were kept (at
+    /// least three quarters of them; without a cutoff only).
+    pub truncated_from: Option<usize>,
 }
 
 /// Scales every column of `phi` to φᵀMφ = 1 and returns Mφ (scaled alike); `None` when a column
@@ -269,13 +272,29 @@ fn residuals_with_m(
     phi: MatRef<'_, f64>,
     mphi: MatRef<'_, f64>,
 ) -> f64 {
+    residuals_each(k, lambdas, phi, mphi)
+        .into_iter()
+        .fold(0.0, |a, r| if r.is_nan() { f64::NAN } else { a.max(r) })
+}
+
+/// The relative residual ‖Kφ − λMφ‖/‖λMφ‖ of each pair, given Mφ; 0 for rigid pairs (λ
+/// below 10⁻⁶ of the largest), NaN for a pair that is not finite.
+fn residuals_each(
+    k: SparseColMatRef<'_, usize, f64>,
+    lambdas: &[f64],
+    phi: MatRef<'_, f64>,
+    mphi: MatRef<'_, f64>,
+) -> Vec<f64> {
     let lam_max = lambdas.iter().cloned().fold(0.0, f64::max);
     let sel: Vec<usize> = (0..lambdas.len())
         .filter(|&c| lambdas[c] > 1e-6 * lam_max)
         .collect();
+    let mut each = vec![0.0; lambdas.len()];
+    if sel.is_empty() {
+        return each;
+    }
     let sub = Mat::<f64>::from_fn(phi.nrows(), sel.len(), |i, c| phi[(i, sel[c])]);
     let kp = sym_matmul(k, sub.as_ref());
-    let mut worst = 0.0f64;
     for (c, &j) in sel.iter().enumerate() {
         let lam = lambdas[j];
         let (mut r2, mut m2) = (0.0, 0.0);
@@ -284,9 +303,9 @@ fn residuals_with_m(
             r2 += r * r;
             m2 += (lam * mphi[(i, j)]).powi(2);
         }
-        worst = worst.max((r2 / m2).sqrt());
+        each[j] = (r2 / m2).sqrt();
     }
-    worst
+    each
 }
 
 /// Solves for the `params.n_eigen` lowest eigenpairs of K φ = λ M φ (K, M full symmetric CSC,
@@ -544,7 +563,25 @@ pub fn solve_generalized(
                 tolerance: params.tolerance,
             });
         };
-        let max_res = residuals_with_m(k, &lambdas[..wanted], phi.as_ref(), mphi.as_ref());
+        let mut max_res = residuals_with_m(k, &lambdas[..wanted], phi.as_ref(), mphi.as_ref());
+        if !(max_res <= params.tolerance) && params.until_lambda.is_none() {
+            // A count of modes (no cutoff) whose lowest three quarters or more passed: keep
+            // those (the caller warns). Far above the shift, the shift-invert operator's
+            // rounding can hold the highest pairs' residuals near the tolerance however large
+            // the Krylov space grows (a 100 × 30 × 5 mm bar's modes 165–205, at 230 kHz);
+            // retries there cost twice the solve and end the same. The Sturm check below still
+            // certifies that no pair under the last one kept is missing.
+            let each = residuals_each(k, &lambdas[..wanted], phi.as_ref(), mphi.as_ref());
+            let prefix = each
+                .iter()
+                .position(|r| !(*r <= params.tolerance))
+                .unwrap_or(wanted);
+            if prefix >= 3 * wanted / 4 && prefix > 0 {
+                info.truncated_from = Some(wanted);
+                max_res = each[..prefix].iter().copied().fold(0.0, f64::max);
+                break 'attempt (lambdas, phi, prefix, nev, max_res);
+            }
+        }
         if !(max_res <= params.tolerance) && !wide && params.method == EigenMethod::BlockLanczos {
             if strict {
                 wide = true;

@@ -798,7 +798,11 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
             &Default::default(),
         ));
     }
-    let model = crate::object::load_object(&job.object, &job.object_params, progress)?;
+    let (model, solve_warnings) =
+        crate::object::load_object_warned(&job.object, &job.object_params, progress)?;
+    for w in &solve_warnings {
+        progress(crate::Progress::Warning(w.clone()));
+    }
     let mut params = EstimateMaterialParams {
         object_name: job.object.display().to_string(),
         ..job.params.clone()
@@ -811,6 +815,7 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
             .map_or_else(|| "estimated".into(), |s| s.to_string_lossy().into_owned());
     }
     let mut out = estimate_on_model(analysed, model, job.hit_m, &params, progress)?;
+    out.info.warnings.splice(0..0, solve_warnings);
     notes.append(&mut out.notes);
     out.notes = notes;
     Ok(out)
