@@ -610,7 +610,13 @@ pub fn solve_generalized(
     // Certify: at the cutoff, or halfway between the last pair and the next one's lower bound.
     let check_at = match params.until_lambda {
         Some(lc) if !info.capped => Some(lc),
-        _ => lambdas.last().map(|&l| l * (1.0 + 1e-6) + 1e-9),
+        // Just above the last pair by its own error bound: a Ritz value with relative
+        // residual ρ lies within ρ·λ of an eigenvalue, so with a 10⁻⁶ margin the last pair's
+        // true twin (a cylinder's degenerate pairs) fell outside the count at ρ ≈ 10⁻⁴ and a
+        // complete result was refused. Above it, more eigenvalues only raise the count.
+        _ => lambdas
+            .last()
+            .map(|&l| l * (1.0 + (2.0 * max_res).clamp(1e-6, 1e-2)) + 1e-9),
     };
     if let (true, Some(lc)) = (params.sturm_check, check_at) {
         let count = match (counted, params.until_lambda) {
