@@ -18,8 +18,9 @@ pub enum MeshCmd {
 /// Arguments of `mesh primitive`.
 #[derive(Args, Debug)]
 pub struct PrimitiveArgs {
-    /// Which shape: bar and box (x,y,z), plate (x,y,thickness), cylinder (radius,height along
-    /// z), sphere (radius), bowl (radius,thickness(,depth), rim at z = 0).
+    /// Which shape, centred on the origin: bar and box (x,y,z), plate (x,y,thickness),
+    /// cylinder (radius,height along z), sphere (radius), bowl (radius,thickness(,depth); rim
+    /// at z = 0, the bowl below it).
     #[arg(value_parser = parse_kind)]
     pub kind: PrimitiveKind,
     /// Comma-separated sizes in m (see the shape).
