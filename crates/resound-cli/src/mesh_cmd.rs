@@ -63,6 +63,7 @@ pub fn run(c: MeshCmd) -> Result<()> {
         MeshCmd::Primitive(a) => {
             let info = write_primitive(a.kind, &parse_list(&a.size)?, a.segments, &a.output)?;
             eprintln!("wrote {} ({info})", a.output.display());
+            crate::util::warn_all(&info.warnings);
         }
         MeshCmd::Check(a) => {
             let r = check_mesh(&a.mesh, a.scale, a.max_hole_edges)?;

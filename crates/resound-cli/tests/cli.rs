@@ -2476,3 +2476,65 @@ fn analyze_joint_shares_poles_between_files_and_refuses_mixed_rates() {
             .success()
     );
 }
+
+/// Issue 37: a mesh in millimetres read as metres (a 300 m bar, first mode 0.6 Hz) was made and
+/// solved without a word. Both say so and name the scale; scaled, neither does.
+#[test]
+fn a_mesh_in_millimetres_read_as_metres_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let made = resound(
+        &[
+            "mesh",
+            "primitive",
+            "bar",
+            "--size",
+            "300,20,10",
+            "-o",
+            "mm.stl",
+        ],
+        d,
+    );
+    ok(&made);
+    let said = String::from_utf8_lossy(&made.stderr).into_owned();
+    assert!(
+        said.contains("300.000 m across") && said.contains("0.001"),
+        "{said}"
+    );
+    let solved = resound(
+        &["modal", "mm.stl", "--material", "glass", "--modes", "3"],
+        d,
+    );
+    ok(&solved);
+    let said = String::from_utf8_lossy(&solved.stderr).into_owned();
+    assert!(said.contains("millimetres scale it by 0.001"), "{said}");
+    let scaled = resound(
+        &[
+            "modal",
+            "mm.stl",
+            "--scale",
+            "0.001",
+            "--material",
+            "glass",
+            "--modes",
+            "3",
+        ],
+        d,
+    );
+    ok(&scaled);
+    assert!(!String::from_utf8_lossy(&scaled.stderr).contains("across"));
+    let small = resound(
+        &[
+            "mesh",
+            "primitive",
+            "sphere",
+            "--size",
+            "0.0005",
+            "-o",
+            "tiny.obj",
+        ],
+        d,
+    );
+    ok(&small);
+    assert!(String::from_utf8_lossy(&small.stderr).contains("1.000 mm across"));
+}

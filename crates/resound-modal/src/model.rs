@@ -357,6 +357,7 @@ fn solve_fem(
     let lmax = (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max).max(1e-9);
     let f_ref = material.bar_wave_speed() / (2.0 * lmax);
     let shift = -units::freq_hz_to_lambda(0.1 * f_ref);
+    let size_warning = implausible_size(lmax);
     let cutoff = match (params.n_modes, params.max_freq_hz) {
         (None, None) => Some(20_000.0),
         (_, f) => f,
@@ -431,6 +432,7 @@ fn solve_fem(
             ),
         ));
     }
+    info.warnings.extend(size_warning);
     if einfo.capped {
         info.warnings.push(Warning::new(
             WarningKind::Model,
@@ -464,4 +466,22 @@ fn solve_fem(
     info.eigen = einfo;
     info.total_s = t0.elapsed().as_secs_f64();
     Ok((model, info))
+}
+
+/// A warning when an object's largest side (m) is outside what sounds when struck: a mesh
+/// in millimetres read as metres is a 300 m bar whose first mode is below 1 Hz.
+pub fn implausible_size(largest_side_m: f64) -> Option<Warning> {
+    let message = if largest_side_m > 5.0 {
+        format!(
+            "the object is {largest_side_m:.3} m across: if the mesh is in millimetres scale it by 0.001 (centimetres: 0.01)"
+        )
+    } else if largest_side_m < 0.002 {
+        format!(
+            "the object is {:.3} mm across: if the mesh is in metres already, was it scaled twice? (a struck object is rarely smaller than a few millimetres)",
+            largest_side_m * 1e3
+        )
+    } else {
+        return None;
+    };
+    Some(Warning::new(WarningKind::Model, message))
 }

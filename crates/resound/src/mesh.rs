@@ -53,6 +53,9 @@ pub struct PrimitiveInfo {
     pub triangles: usize,
     /// Enclosed volume, m³.
     pub volume_m3: f64,
+    /// A size no struck object has (sizes in millimetres read as metres).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<resound_core::Warning>,
 }
 
 impl std::fmt::Display for PrimitiveInfo {
@@ -78,10 +81,15 @@ pub fn write_primitive(
 ) -> Result<PrimitiveInfo> {
     let m = make_primitive(kind, sizes_m, segments)?;
     resound_io::save_surface(out, &m)?;
+    let (lo, hi) = m.bbox();
+    let largest = (0..3).map(|c| hi[c] - lo[c]).fold(0.0, f64::max);
     Ok(PrimitiveInfo {
         vertices: m.vertices.len(),
         triangles: m.triangles.len(),
         volume_m3: m.signed_volume(),
+        warnings: resound_modal::model::implausible_size(largest)
+            .into_iter()
+            .collect(),
     })
 }
 
