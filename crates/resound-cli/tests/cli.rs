@@ -2538,3 +2538,79 @@ fn a_mesh_in_millimetres_read_as_metres_is_named() {
     ok(&small);
     assert!(String::from_utf8_lossy(&small.stderr).contains("1.000 mm across"));
 }
+
+/// Issue 37: a hit off the object was refused only after the solve (6–12 s). It is refused
+/// before any: no assembly or factorization is reported before the error.
+#[test]
+fn a_hit_off_the_surface_is_refused_before_any_solve() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "cylinder",
+            "--size",
+            "0.04,0.09",
+            "-o",
+            "cup.obj",
+        ],
+        d,
+    ));
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/recordings");
+    std::fs::copy(assets.join("steel_nut_M4_2.wav"), d.join("strike.wav")).unwrap();
+    for args in [
+        &[
+            "modal",
+            "cup.obj",
+            "--material",
+            "ceramic",
+            "--hit",
+            "0.04,0,0.09",
+        ][..],
+        &[
+            "synth",
+            "--material",
+            "preset:steel",
+            "--mesh",
+            "cup.obj",
+            "--hit",
+            "0.04,0,0.09",
+            "-o",
+            "x.wav",
+        ],
+        &[
+            "estimate",
+            "strike.wav",
+            "--mesh",
+            "cup.obj",
+            "--hit",
+            "0.04,0,0.09",
+            "-o",
+            "x.json",
+        ],
+    ] {
+        let out = resound(args, d);
+        fails_with(&out, "is 0.0450 m from the surface");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !err.contains("assembling") && !err.contains("factorizing"),
+            "{args:?}: {err}"
+        );
+    }
+    assert!(!d.join("x.wav").exists() && !d.join("x.json").exists());
+    // On the surface (the side wall), the same commands run.
+    ok(&resound(
+        &[
+            "modal",
+            "cup.obj",
+            "--material",
+            "ceramic",
+            "--modes",
+            "4",
+            "--hit",
+            "0.04,0,0.03",
+        ],
+        d,
+    ));
+}

@@ -179,6 +179,27 @@ impl ModalModel {
         })
     }
 
+    /// Checks `query` against a surface by the rule of [`ModalModel::hit`] before any model
+    /// exists (a hit off the object is refused before a solve of seconds, not after).
+    ///
+    /// # Errors
+    /// [`ModalModelError::HitOffSurface`] when the point is farther from the surface.
+    pub fn check_hit_on(
+        vertices: &[[f64; 3]],
+        triangles: &[[u32; 3]],
+        query: [f64; 3],
+    ) -> Result<(), ModalModelError> {
+        let tolerance = hit_tolerance_m(vertices);
+        match closest_surface_point(vertices, triangles, query) {
+            Some(sp) if !(sp.distance <= tolerance) => Err(ModalModelError::HitOffSurface {
+                point: query,
+                distance: sp.distance,
+                tolerance,
+            }),
+            _ => Ok(()),
+        }
+    }
+
     /// The surface point nearest to `p` (m), accepted when it is within `tolerance_m`.
     ///
     /// # Errors
@@ -209,9 +230,7 @@ impl ModalModel {
     /// # Errors
     /// [`ModalModelError::HitOffSurface`] when the point is farther from the surface.
     pub fn hit(&self, query: [f64; 3]) -> Result<Hit, ModalModelError> {
-        let (lo, hi) = crate::geometry::bbox(&self.vertices);
-        let diag = (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt();
-        let at = self.locate_hit(query, 0.05 * diag)?;
+        let at = self.locate_hit(query, hit_tolerance_m(&self.vertices))?;
         Ok(Hit {
             gains: self.gains(&at),
             at,
@@ -353,4 +372,11 @@ mod tests {
         bad.shapes.pop();
         assert!(bad.check().is_err());
     }
+}
+
+/// How far a hit may lie from the surface and still be snapped to it: 5 % of the bounding
+/// box's diagonal.
+fn hit_tolerance_m(vertices: &[[f64; 3]]) -> f64 {
+    let (lo, hi) = crate::geometry::bbox(vertices);
+    0.05 * (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt()
 }

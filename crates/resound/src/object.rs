@@ -104,6 +104,24 @@ pub fn solve_mesh_file(
         })
 }
 
+/// Refuses a hit off the surface of the mesh in `path` (scaled by `scale`) before any solve,
+/// by the rule the solved model applies ([`ModalModel::hit`]): a wrong hit costs
+/// milliseconds, not a solve of seconds. Models (`.rmodal`) and tet meshes are checked when
+/// loaded, which is as early.
+///
+/// # Errors
+/// An unreadable mesh; a hit off its surface.
+pub fn check_hit_before_solve(path: &Path, scale: f64, hit_m: [f64; 3]) -> Result<()> {
+    if is_model_file(path) || !(1e-6..=1e6).contains(&scale) {
+        return Ok(());
+    }
+    if let LoadedMesh::Surface(s) = load_mesh(path, scale)? {
+        ModalModel::check_hit_on(&s.vertices, &s.triangles, hit_m)
+            .map_err(|e| Error::from(e).at(path))?;
+    }
+    Ok(())
+}
+
 /// The modal model of the object in `path`: loaded from a `.rmodal`, or solved from a mesh.
 ///
 /// # Errors
@@ -525,6 +543,9 @@ pub fn solve_object(job: &SolveJob, progress: ProgressFn<'_>) -> Result<SolveOut
                 message: format!("the top frequency {f} Hz must be in (0, 1e6]"),
             });
         }
+    }
+    if let Some(h) = job.hit_m {
+        check_hit_before_solve(&job.mesh, job.scale, h)?;
     }
     progress(Progress::begin(Stage::Assembling));
     let mut solved = solve_mesh_file(&job.mesh, job.scale, &job.material, &job.modal, progress)?;

@@ -615,6 +615,7 @@ fn load_struck_object(
         return Err(invalid("not an object source"));
     };
     let material = load_material_spec(material, library.as_deref())?;
+    crate::object::check_hit_before_solve(object, object_params.scale, *hit_m)?;
     let model = crate::object::load_object(object, object_params, progress)?;
     let (hit, note) = crate::object::snap_hit(&model, *hit_m)?;
     Ok((material, model, hit, note))

@@ -798,6 +798,7 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
             &Default::default(),
         ));
     }
+    crate::object::check_hit_before_solve(&job.object, job.object_params.scale, job.hit_m)?;
     let (model, solve_warnings) =
         crate::object::load_object_warned(&job.object, &job.object_params, progress)?;
     for w in &solve_warnings {
