@@ -308,6 +308,13 @@ impl ModalModel {
     }
 }
 
+/// How far a hit may lie from the surface and still be snapped to it: 5 % of the bounding
+/// box's diagonal.
+fn hit_tolerance_m(vertices: &[[f64; 3]]) -> f64 {
+    let (lo, hi) = crate::geometry::bbox(vertices);
+    0.05 * (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -372,11 +379,4 @@ mod tests {
         bad.shapes.pop();
         assert!(bad.check().is_err());
     }
-}
-
-/// How far a hit may lie from the surface and still be snapped to it: 5 % of the bounding
-/// box's diagonal.
-fn hit_tolerance_m(vertices: &[[f64; 3]]) -> f64 {
-    let (lo, hi) = crate::geometry::bbox(vertices);
-    0.05 * (0..3).map(|c| (hi[c] - lo[c]).powi(2)).sum::<f64>().sqrt()
 }
