@@ -131,6 +131,7 @@ pub fn run(a: ModalArgs) -> Result<()> {
     }
     if let Some(out) = &a.output {
         model_file::save(out, &model)?;
+        eprintln!("wrote {} ({} modes)", out.display(), model.n_modes());
     }
     crate::util::show(a.json, &report)
 }
