@@ -558,3 +558,17 @@ def test_joint_analysis_of_both_channels_shares_poles_and_matches_the_cli(tmp_pa
         resound.analyze_joint([wav], channel=0, every_channel=True)
     out = cli("analyze", str(wav), str(wav), cwd=tmp_path)
     assert out.returncode == 2 and "--joint" in out.stderr
+
+
+def test_bad_mode_arrays_raise_our_message_not_a_numpy_internal():
+    """Issue 37: render_scrape(None, …) raised numpy's "cannot reshape array of size 1"."""
+    import pytest as _pytest
+    for bad, kind in [(None, TypeError), ("x", TypeError), ([1.0, 2.0, 3.0], ValueError),
+                      (np.zeros((3, 5)), ValueError), ([[1, 2], [3]], TypeError)]:
+        for call in (lambda m: resound.render_scrape(m, speed_m_s=0.2, duration_s=0.1),
+                     lambda m: resound.render_modes(m, duration_s=0.1)):
+            with _pytest.raises(kind, match="freq_hz, damping_per_s, amplitude, phase_rad"):
+                call(bad)
+    # One mode as a flat 4-vector is still one mode.
+    y = resound.render_modes([440.0, 5.0, 0.5, 0.0], duration_s=0.1, sample_rate=8000)
+    assert y.shape == (800,) and np.abs(y).max() > 0.1

@@ -263,11 +263,28 @@ def render_strike(material: MaterialLike, model: ModalModel, hit: Sequence[float
     return (x, info) if return_info else x
 
 
+def _mode_rows(modes: Any) -> np.ndarray:
+    """Modes as a contiguous (n, 4) float64 array, or a TypeError/ValueError that says what a
+    mode array is (never a numpy reshape error)."""
+    if isinstance(modes, Modes):
+        return np.ascontiguousarray(modes.to_array())
+    what = ("modes are Modes or an array shaped (n, 4): freq_hz, damping_per_s, amplitude, "
+            "phase_rad")
+    if modes is None or isinstance(modes, (str, bytes)):
+        raise TypeError(f"{what}; got {type(modes).__name__}")
+    try:
+        rows = np.asarray(modes, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"{what}; got {type(modes).__name__} ({e})") from None
+    if rows.ndim == 2 and rows.shape[1] == 4 or rows.ndim == 1 and rows.size == 4:
+        return np.ascontiguousarray(rows.reshape(-1, 4))
+    raise ValueError(f"{what}; got an array shaped {rows.shape}")
+
+
 def render_modes(modes: Union[Modes, np.ndarray], *, duration_s: float = 1.0,
                  sample_rate: int = 48000) -> np.ndarray:
     """Analysed modes rendered as recorded (phases included): float32 samples."""
-    rows = modes.to_array() if isinstance(modes, Modes) else np.asarray(modes, np.float64)
-    return _native.render_modes(np.ascontiguousarray(rows.reshape(-1, 4)), duration_s,
+    return _native.render_modes(_mode_rows(modes), duration_s,
                                 sample_rate)
 
 
@@ -456,10 +473,10 @@ def render_scrape(modes: Union[Modes, np.ndarray], *, speed_m_s: Optional[float]
         irs: location-dependent impulse responses along the path (eq. 9), 1–256.
         seed: surface, quilting and IR variation.
     """
-    rows = modes.to_array() if isinstance(modes, Modes) else np.asarray(modes, np.float64)
+    rows = _mode_rows(modes)
     traj = None if trajectory is None else np.ascontiguousarray(trajectory, dtype=np.float64)
     x, length_m, info = _native.render_scrape(
-        np.ascontiguousarray(rows.reshape(-1, 4)), speed_m_s, traj, duration_s,
+        rows, speed_m_s, traj, duration_s,
         os.fspath(surface), roughness_m, surface_spacing_m, probe_mass_kg, friction, gamma,
         tip_width_m, irs, seed, sample_rate)
     for w in info["warnings"]:
