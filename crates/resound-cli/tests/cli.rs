@@ -2607,3 +2607,68 @@ fn a_hit_off_the_surface_is_refused_before_any_solve() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("wrote cup.rmodal (4 modes)"), "{err}");
 }
+
+/// Issue 38: three inputs that panicked or aborted (exit 101/134) or rendered silence with exit
+/// 0 are refused with a message: an impactor of 1e308 or 1e20 kg (a pulse of 33 GB), a scene
+/// bowl thicker than its radius, a rotation of 1e300 rad (NaN in f32).
+#[test]
+fn absurd_impactors_bowls_and_rotations_are_refused_not_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "cylinder",
+            "--size",
+            "0.04,0.09",
+            "-o",
+            "cup.obj",
+        ],
+        d,
+    ));
+    for mass in ["1e308", "1e20", "0"] {
+        let flag = format!("--impactor-mass={mass}");
+        let args = [
+            "synth",
+            "--material",
+            "preset:steel",
+            "--mesh",
+            "cup.obj",
+            "--hit",
+            "0.04,0,0.03",
+            &flag,
+            "-o",
+            "x.wav",
+        ];
+        fails_with(
+            &resound(&args, d),
+            "impactor mass must be in (0, 10 000] kg",
+        );
+    }
+    assert!(!d.join("x.wav").exists());
+    let scene = |body: &str| {
+        format!(
+            "duration = 0.3\n[listener]\nposition = [0.0, 0.3, 0.5]\n[[body]]\nname = \"floor\"\nfixed = true\nshape = {{ box = [1.0, 0.04, 1.0] }}\nmaterial = \"preset:wood\"\ndensity = 700\n[[body]]\nname = \"b\"\nmaterial = \"preset:ceramic\"\ndensity = 2400\nposition = [0.0, 0.3, 0.0]\n{body}\n"
+        )
+    };
+    std::fs::write(
+        d.join("bowl.toml"),
+        scene("shape = { bowl = [0.1, 0.2, 0.05] }"),
+    )
+    .unwrap();
+    fails_with(
+        &resound(&["scene", "bowl.toml", "-o", "b.wav"], d),
+        "bowl thickness 0.2 must be smaller than its radius 0.1",
+    );
+    std::fs::write(
+        d.join("turn.toml"),
+        scene("shape = { sphere = 0.03 }\nrotation = [1e300, 0.0, 0.0]"),
+    )
+    .unwrap();
+    fails_with(
+        &resound(&["scene", "turn.toml", "-o", "t.wav"], d),
+        "rotation (axis × angle) must be at most 100 rad",
+    );
+    assert!(!d.join("b.wav").exists() && !d.join("t.wav").exists());
+}

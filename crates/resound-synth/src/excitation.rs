@@ -41,6 +41,9 @@ pub enum ContactModel {
     Impulse,
 }
 
+/// The longest contact an impact may have, s.
+pub const MAX_CONTACT_S: f64 = 1.0;
+
 /// An impact.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Impact {
@@ -154,6 +157,14 @@ impl Impact {
             return Ok(Vec::new());
         }
         let tau = self.duration_s(model);
+        // A contact of more than a second is no impact (a 1e20 kg impactor asked for 33 GB of
+        // pulse): refused before anything is sized by it.
+        if !(tau <= MAX_CONTACT_S) {
+            return Err(SynthError::Parameter(format!(
+                "the contact would last {tau:.3e} s (impactor {:.3e} kg, radius {:.3e} m at {} m/s): more than {MAX_CONTACT_S} s is no impact",
+                self.impactor_mass_kg, self.impactor_radius_m, self.speed_m_s
+            )));
+        }
         if model == ContactModel::Impulse || tau < 1e-3 * t {
             return Ok(vec![(j / t) as f32]);
         }

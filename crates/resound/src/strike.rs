@@ -222,10 +222,10 @@ fn check(p: &StrikeParams) -> Result<()> {
         ));
     }
     if let Some(m) = p.impactor_mass_kg {
-        if !(m > 0.0 && m.is_finite()) {
+        if !(m > 0.0 && m <= 1e4) {
             return Err(param(
                 "impactor_mass_kg",
-                format!("impactor mass must be > 0 kg, got {m}"),
+                format!("impactor mass must be in (0, 10 000] kg, got {m:e}"),
             ));
         }
     }

@@ -6,6 +6,8 @@ use super::*;
 pub(super) const MAX_SPEED_M_S: f64 = 1000.0;
 /// Fastest initial spin of a body, rad/s.
 pub(super) const MAX_SPIN_RAD_S: f64 = 1.0e4;
+/// Largest rotation vector (axis × angle), rad: 16 turns; beyond, a unit mistake.
+pub(super) const MAX_ROTATION_RAD: f64 = 100.0;
 /// Farthest a body may start from the origin, m.
 pub(super) const MAX_EXTENT_M: f64 = 1.0e4;
 
@@ -34,6 +36,14 @@ pub(super) fn check_body(b: &BodySpec) -> Result<(), SceneError> {
     // rapier works in f32 and silently stops integrating absurd states (a ball thrown at
     // 1e30 m/s just fell straight down): refuse what no contact-sound scene needs.
     let norm = |a: &[f64; 3]| a.iter().map(|v| v * v).sum::<f64>().sqrt();
+    // The axis-angle goes through sin/cos in f32: 1e300 became NaN and the body vanished
+    // from a scene that then exited 0, silent.
+    if !(norm(&b.rotation) <= MAX_ROTATION_RAD) {
+        return Err(err(format!(
+            "rotation (axis × angle) must be at most {MAX_ROTATION_RAD} rad long, got {:?}",
+            b.rotation
+        )));
+    }
     if norm(&b.linvel) > MAX_SPEED_M_S
         || norm(&b.angvel) > MAX_SPIN_RAD_S
         || norm(&b.position) > MAX_EXTENT_M

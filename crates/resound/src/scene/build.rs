@@ -2,6 +2,7 @@
 
 use super::cache::{body_transfer, modal_model, Transfers};
 use super::*;
+use crate::mesh::{make_primitive, PrimitiveKind};
 
 /// Where to look things up while building.
 pub struct BuildOptions<'a> {
@@ -18,23 +19,27 @@ pub struct BuildOptions<'a> {
 /// The surface mesh and collider shape of a body, in the body frame.
 fn geometry(b: &BodyFile, base_dir: &Path) -> Result<(SurfaceMesh, Shape)> {
     Ok(match &b.shape {
+        // Primitives go through `mesh primitive`'s own checks (a bowl thicker than its radius
+        // is refused there; the raw primitive panicked).
         ShapeFile::Box(s) | ShapeFile::Plate(s) => (
             // The modal solve refines the surface to the voxel scale (fem), so contacts anywhere
             // on a face find the mode shapes there.
-            primitive::bar(*s),
+            make_primitive(PrimitiveKind::Bar, s, 4)?,
             Shape::Cuboid([0.5 * s[0], 0.5 * s[1], 0.5 * s[2]]),
         ),
-        ShapeFile::Sphere(r) => (primitive::sphere(*r, 24), Shape::Ball(*r)),
+        ShapeFile::Sphere(r) => (
+            make_primitive(PrimitiveKind::Sphere, &[*r], 24)?,
+            Shape::Ball(*r),
+        ),
         ShapeFile::Cylinder([r, h]) => (
-            primitive::cylinder(*r, *h, 32),
+            make_primitive(PrimitiveKind::Cylinder, &[*r, *h], 32)?,
             Shape::Cylinder {
                 half_height: 0.5 * h,
                 radius: *r,
             },
         ),
         ShapeFile::Bowl(v) => {
-            let depth = v.get(2).copied().unwrap_or(v[0]);
-            let m = primitive::bowl(v[0], v[1], depth, 48);
+            let m = make_primitive(PrimitiveKind::Bowl, v, 48)?;
             let hull = Shape::ConvexHull(m.vertices.clone());
             (m, hull)
         }

@@ -20,7 +20,7 @@ use crate::material::resolve_material;
 use crate::model_cache::{KeyBuilder, ModelCache};
 use resound_core::progress::{Progress, ProgressFn, Stage, Warning, WarningKind};
 use resound_core::{Material, ModalModel, SoundMaterial};
-use resound_fem::{primitive, SurfaceMesh};
+use resound_fem::SurfaceMesh;
 use resound_io::library::Library;
 use resound_io::scene::{BodyFile, SceneFile, ShapeFile};
 use resound_modal::{ModalBuilder, ModalParams};
