@@ -10,7 +10,7 @@ use resound::material::{
 };
 use resound::object::ObjectParams;
 use resound::signal::AnalyzeParams;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `estimate`.
 #[derive(Args, Debug)]
@@ -76,7 +76,7 @@ pub struct EstimateArgs {
 /// Runs `estimate`.
 pub fn run(a: EstimateArgs) -> Result<()> {
     crate::util::check_paths(
-        a.audio.iter().chain([&a.mesh]),
+        a.audio.iter().chain([&a.mesh]).chain(&a.library),
         a.output.iter().chain(&a.plot),
     )?;
     if let Some(name) = &a.name {
@@ -182,7 +182,7 @@ pub fn run_materials(a: MaterialsArgs) -> Result<()> {
             eprintln!("imported {:?}", m.name);
         }
         MaterialsCmd::Export { name, file } => {
-            crate::util::check_paths(std::iter::empty::<&Path>(), [&file])?;
+            crate::util::check_paths(lib, [&file])?;
             write_material(&file, &get(read_library(lib)?.as_ref(), &name)?)?;
         }
         MaterialsCmd::Remove { name } => remove_material(lib, &name)?,

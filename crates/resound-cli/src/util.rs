@@ -270,13 +270,21 @@ pub struct ObjectSourceArgs {
 }
 
 impl ObjectSourceArgs {
-    /// The files read.
+    /// The files read: the object, the modes or statistics, the library and a material
+    /// given as a file (`synth --material m.json -o m.json` turned the material into a WAV).
     pub fn inputs(&self) -> Vec<&std::path::Path> {
+        let material = self
+            .material
+            .as_deref()
+            .map(std::path::Path::new)
+            .filter(|p| p.is_file());
         self.mesh
             .iter()
             .chain(&self.modes)
             .chain(&self.stats)
+            .chain(&self.library)
             .map(|p| p.as_path())
+            .chain(material)
             .collect()
     }
 

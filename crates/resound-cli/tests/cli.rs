@@ -2672,3 +2672,97 @@ fn absurd_impactors_bowls_and_rotations_are_refused_not_panics() {
     );
     assert!(!d.join("b.wav").exists() && !d.join("t.wav").exists());
 }
+
+/// Issue 38: the material library was an output like any file — `materials export x
+/// "$RESOUND_LIBRARY"` replaced every entry with one JSON document (exit 0), as did `synth -o`,
+/// `analyze --json` and `mesh primitive -o` on it — and `synth --material m.json -o m.json`
+/// turned the material into a WAV. Each is refused before any work; both files survive.
+#[test]
+fn the_library_and_a_material_file_are_never_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lib = d.join(".test-library.sqlite");
+    ok(&resound(&["materials", "export", "glass", "g.json"], d));
+    let mine =
+        std::fs::read_to_string(d.join("g.json"))
+            .unwrap()
+            .replacen("\"glass\"", "\"mine\"", 1);
+    std::fs::write(d.join("m.json"), &mine).unwrap();
+    ok(&resound(&["materials", "import", "m.json"], d));
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "cylinder",
+            "--size",
+            "0.04,0.09",
+            "-o",
+            "cup.obj",
+        ],
+        d,
+    ));
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/recordings");
+    std::fs::copy(assets.join("steel_nut_M4_2.wav"), d.join("strike.wav")).unwrap();
+    let lib_s = lib.to_str().unwrap();
+    let synth = [
+        "synth",
+        "--material",
+        "preset:steel",
+        "--mesh",
+        "cup.obj",
+        "--hit",
+        "0.04,0,0.03",
+        "-o",
+        lib_s,
+    ];
+    for args in [
+        &["materials", "export", "mine", lib_s][..],
+        &synth,
+        &["analyze", "strike.wav", "--json", lib_s],
+        &[
+            "mesh",
+            "primitive",
+            "bar",
+            "--size",
+            "0.1,0.1,0.1",
+            "-o",
+            lib_s,
+        ],
+    ] {
+        fails_with(&resound(args, d), "is the material library");
+    }
+    // An explicit library is protected as well, and a material file read is never written.
+    let own = [
+        "materials",
+        "export",
+        "mine",
+        "own.sqlite",
+        "--library",
+        "own.sqlite",
+    ];
+    ok(&resound(
+        &["materials", "import", "m.json", "--library", "own.sqlite"],
+        d,
+    ));
+    fails_with(&resound(&own, d), "both an input and an output");
+    let args = [
+        "synth",
+        "--material",
+        "m.json",
+        "--mesh",
+        "cup.obj",
+        "--hit",
+        "0.04,0,0.03",
+        "-o",
+        "m.json",
+    ];
+    fails_with(&resound(&args, d), "both an input and an output");
+    assert_eq!(std::fs::read_to_string(d.join("m.json")).unwrap(), mine);
+    let listed = ok(&resound(&["materials", "list"], d));
+    assert!(listed.contains("mine"), "{listed}");
+    let listed = ok(&resound(
+        &["materials", "list", "--library", "own.sqlite"],
+        d,
+    ));
+    assert!(listed.contains("mine"), "{listed}");
+}

@@ -203,6 +203,10 @@ pub fn import_pyimpact_into(dir: &Path, out_dir: &Path) -> Result<Vec<std::path:
 /// coincide. `-` (stdout) is not a path.
 pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
     let canon = |p: &Path| std::fs::canonicalize(p).ok();
+    // The default material library is never an output either: `materials export x
+    // "$RESOUND_LIBRARY"` replaced every entry with one JSON document (callers with their own
+    // library path pass it as an input).
+    let library = resound_io::library::default_library_path();
     let outputs: Vec<&Path> = outputs
         .iter()
         .copied()
@@ -221,6 +225,13 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
             )));
         }
         let same = |a: &Path, b: &Path| a == b || canon(a).is_some_and(|c| Some(c) == canon(b));
+        if let Some(l) = library.as_deref().filter(|l| same(l, o)) {
+            return Err(invalid(format!(
+                "{} is the material library ({}); refusing to overwrite it",
+                o.display(),
+                l.display()
+            )));
+        }
         if let Some(i) = inputs.iter().find(|i| same(i, o)) {
             return Err(invalid(format!(
                 "{} is both an input and an output; refusing to overwrite {}",
