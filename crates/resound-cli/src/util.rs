@@ -273,19 +273,10 @@ impl ObjectSourceArgs {
     /// The files read: the object, the modes or statistics, the library and a material
     /// given as a file (`synth --material m.json -o m.json` turned the material into a WAV).
     pub fn inputs(&self) -> Vec<&std::path::Path> {
-        let material = self
-            .material
-            .as_deref()
-            .map(std::path::Path::new)
-            .filter(|p| p.is_file());
-        self.mesh
-            .iter()
-            .chain(&self.modes)
-            .chain(&self.stats)
-            .chain(&self.library)
-            .map(|p| p.as_path())
-            .chain(material)
-            .collect()
+        let material = self.material.iter().map(std::path::Path::new);
+        let files = [&self.mesh, &self.modes, &self.stats, &self.library];
+        let paths = files.into_iter().flatten().map(|p| p.as_path());
+        paths.chain(material.filter(|p| p.is_file())).collect()
     }
 
     /// The library's strike source (`seed`: of a statistics draw).

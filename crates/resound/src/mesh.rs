@@ -79,6 +79,7 @@ pub fn write_primitive(
     segments: usize,
     out: &Path,
 ) -> Result<PrimitiveInfo> {
+    crate::files::check_outputs(&[], &[out])?;
     let m = make_primitive(kind, sizes_m, segments)?;
     resound_io::save_surface(out, &m)?;
     let (lo, hi) = m.bbox();
