@@ -2766,3 +2766,31 @@ fn the_library_and_a_material_file_are_never_outputs() {
     ));
     assert!(listed.contains("mine"), "{listed}");
 }
+
+/// Issue 38: messages that pointed at the wrong thing: `--max-modes=0` was "more than the 6
+/// allowed" (a count of 27 against 0 + 6 rigid modes), a directory given as the library was
+/// SQLite's "disk I/O error".
+#[test]
+fn a_zero_mode_cap_and_a_directory_library_are_named_as_such() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "bar",
+            "--size",
+            "0.3,0.02,0.01",
+            "-o",
+            "bar.obj",
+        ],
+        d,
+    ));
+    let out = resound(&["modal", "bar.obj", "-m", "steel", "--max-modes=0"], d);
+    fails_with(&out, "the maximum mode count must be at least 1");
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("allowed"));
+    std::fs::create_dir(d.join("adir")).unwrap();
+    let out = resound(&["materials", "list", "--library", "adir"], d);
+    fails_with(&out, "is a directory; a material library is a file");
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("disk I/O"));
+}

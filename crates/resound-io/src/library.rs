@@ -82,6 +82,17 @@ fn db_err(path: &Path, e: rusqlite::Error) -> crate::IoError {
     parse_err(path, format!("material library: {e}"))
 }
 
+/// A directory is no library (SQLite said "disk I/O error" of one).
+fn refuse_directory(path: &Path) -> Result<()> {
+    if path.is_dir() {
+        return Err(parse_err(
+            path,
+            "is a directory; a material library is a file (e.g. materials.sqlite)",
+        ));
+    }
+    Ok(())
+}
+
 /// The default library path (see the module docs); `None` without a home directory.
 pub fn default_library_path() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("RESOUND_LIBRARY") {
@@ -111,6 +122,7 @@ impl Library {
     /// # Errors
     /// File-system and SQLite errors, or a file that is not a Resound library.
     pub fn open(path: &Path) -> Result<Self> {
+        refuse_directory(path)?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| io_err(path, e))?;
         }
@@ -156,6 +168,7 @@ impl Library {
         if !path.exists() {
             return Ok(None);
         }
+        refuse_directory(path)?;
         let conn = Connection::open_with_flags(path, rusqlite::OpenFlags::SQLITE_OPEN_READ_ONLY)
             .map_err(|e| db_err(path, e))?;
         let has_table = has_materials_table(&conn, path)?;

@@ -325,6 +325,11 @@ fn check_params(p: &ModalParams) -> Result<(), ModelError> {
             "the mode count must be at least 1".into(),
         ));
     }
+    if p.max_modes == 0 {
+        return Err(ModelError::Params(
+            "the maximum mode count must be at least 1".into(),
+        ));
+    }
     if let Some(n) = p.n_modes.filter(|&n| n > p.max_modes) {
         return Err(ModelError::Params(format!(
             "{n} modes is more than the supported {} (the Krylov space grows as 3x the modes)",
