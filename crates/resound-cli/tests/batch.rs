@@ -439,3 +439,22 @@ fn bad_job_lines_fail_by_line_number_and_the_others_finish() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("missing.jsonl"));
 }
+
+/// Issue 38: an empty jobs file (or one of blank lines and comments) exited 0 with "0 of 0
+/// jobs" and an output folder. It is an error that says why, and nothing is made.
+#[test]
+fn a_jobs_file_without_jobs_is_an_error_not_an_empty_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (name, text) in [
+        ("empty.jsonl", ""),
+        ("blank.jsonl", "\n  \n# only a comment\n"),
+    ] {
+        std::fs::write(d.join(name), text).unwrap();
+        let out = resound(&["batch", name, "--out", "made"], d);
+        assert_eq!(out.status.code(), Some(2), "{name}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("no jobs (one JSON object per line"), "{err}");
+        assert!(!d.join("made").exists());
+    }
+}

@@ -391,6 +391,17 @@ pub fn run_batch(
             error: e,
         })
     })?;
+    // A file without one job is a mistake (the wrong file, or an export that failed), not a
+    // finished dataset: said before the output folder is made.
+    if text
+        .lines()
+        .all(|l| l.trim().is_empty() || l.trim().starts_with('#'))
+    {
+        return Err(invalid(format!(
+            "{}: no jobs (one JSON object per line; blank lines and # comments are skipped)",
+            jobs_path.display()
+        )));
+    }
     let base = jobs_path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let out = &params.out_dir;
     std::fs::create_dir_all(out).map_err(|e| {
