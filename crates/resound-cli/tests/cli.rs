@@ -2670,7 +2670,12 @@ fn absurd_impactors_bowls_and_rotations_are_refused_not_panics() {
         &resound(&["scene", "turn.toml", "-o", "t.wav"], d),
         "rotation (axis × angle) must be at most 100 rad",
     );
-    assert!(!d.join("b.wav").exists() && !d.join("t.wav").exists());
+    std::fs::write(d.join("huge.toml"), scene("shape = { sphere = 1e6 }")).unwrap();
+    fails_with(
+        &resound(&["scene", "huge.toml", "-o", "h.wav"], d),
+        "the body is 2.000e6 m across, more than 1000 m",
+    );
+    assert!(!d.join("b.wav").exists() && !d.join("t.wav").exists() && !d.join("h.wav").exists());
 }
 
 /// Issue 38: the material library was an output like any file — `materials export x

@@ -8,6 +8,8 @@ pub(super) const MAX_SPEED_M_S: f64 = 1000.0;
 pub(super) const MAX_SPIN_RAD_S: f64 = 1.0e4;
 /// Largest rotation vector (axis × angle), rad: 16 turns; beyond, a unit mistake.
 pub(super) const MAX_ROTATION_RAD: f64 = 100.0;
+/// Largest body, m (a floor may be large; nothing struck is a kilometre across).
+pub(super) const MAX_BODY_SIZE_M: f64 = 1000.0;
 /// Farthest a body may start from the origin, m.
 pub(super) const MAX_EXTENT_M: f64 = 1.0e4;
 
@@ -89,6 +91,33 @@ pub(super) fn check_body(b: &BodySpec) -> Result<(), SceneError> {
     };
     if !ok {
         return Err(err(format!("unusable shape {:?}", shape_kind(&b.shape))));
+    }
+    // rapier and the modal solve take a 1e6 m sphere without a word; no struck object is
+    // larger than the extent a scene may span.
+    let span = |p: &[[f64; 3]]| {
+        (0..3)
+            .map(|c| {
+                let (lo, hi) = p.iter().fold((f64::MAX, f64::MIN), |(lo, hi), v| {
+                    (lo.min(v[c]), hi.max(v[c]))
+                });
+                hi - lo
+            })
+            .fold(0.0, f64::max)
+    };
+    let size = match &b.shape {
+        Shape::Ball(r) => 2.0 * r,
+        Shape::Cuboid(h) => 2.0 * h.iter().copied().fold(0.0, f64::max),
+        Shape::Cylinder {
+            half_height,
+            radius,
+        } => 2.0 * half_height.max(*radius),
+        Shape::ConvexHull(p) => span(p),
+        Shape::TriMesh { vertices, .. } => span(vertices),
+    };
+    if !(size <= MAX_BODY_SIZE_M) {
+        return Err(err(format!(
+            "the body is {size:.3e} m across, more than {MAX_BODY_SIZE_M} m (a size in millimetres?)"
+        )));
     }
     if let Some(s) = &b.sound {
         if s.vertices.is_empty() || s.gains.len() != s.vertices.len() * s.modes.len() {
