@@ -64,6 +64,9 @@ pub struct SynthArgs {
     /// Print a JSON summary.
     #[arg(long)]
     pub json: bool,
+    /// Bring the peak to −1 dBFS instead of writing the strike's physical level.
+    #[arg(long)]
+    pub normalize: bool,
     /// Also play it on the default audio device (the engine runs in the audio callback; needs
     /// the `live` build feature).
     #[arg(long, hide = !cfg!(feature = "live"))]
@@ -91,7 +94,10 @@ pub fn run(a: SynthArgs) -> Result<()> {
     let (mut strike, notes) =
         crate::util::with_bar("synth", |cb| render_strike_from(&source, &params, cb))?;
     crate::util::notes(&notes);
-    let level_note = resound::strike::level_for_file(&mut strike)?;
+    let level_note = match a.normalize {
+        true => Some(resound::strike::normalize_for_file(&mut strike)?),
+        false => resound::strike::level_for_file(&mut strike)?,
+    };
     crate::util::warn_all(&strike.info.warnings);
     crate::util::notes(level_note.as_slice());
     write_wav(&a.output, &strike.samples, a.sample_rate, a.format)?;

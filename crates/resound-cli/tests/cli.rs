@@ -2799,3 +2799,55 @@ fn a_zero_mode_cap_and_a_directory_library_are_named_as_such() {
     fails_with(&out, "is a directory; a material library is a file");
     assert!(!String::from_utf8_lossy(&out.stderr).contains("disk I/O"));
 }
+
+/// Issue 37: a strike peaking at −55 dBFS got no word (the warning started at −90). Below
+/// −40 dBFS it is called faint, and `--normalize` brings the peak to −1 dBFS instead (no
+/// level warning then: the level is chosen).
+#[test]
+fn a_faint_strike_is_named_and_normalize_brings_it_to_full_scale() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "cylinder",
+            "--size",
+            "0.04,0.09",
+            "-o",
+            "cup.obj",
+        ],
+        d,
+    ));
+    let peak_dbfs = |p: &Path| {
+        let a = resound::io::load_audio(p).unwrap();
+        let peak = a.channels[0].iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        20.0 * f64::from(peak).log10()
+    };
+    let base = "synth --material metal --mesh cup.obj --hit 0.04,0,0.03 --json -o";
+    let run = |extra: &str| -> Value {
+        let args: Vec<&str> = base.split(' ').chain(extra.split(' ')).collect();
+        serde_json::from_str(&ok(&resound(&args, d))).unwrap()
+    };
+    let faint = run("faint.wav");
+    let peak = peak_dbfs(&d.join("faint.wav"));
+    assert!((-90.0..-40.0).contains(&peak), "{peak} dBFS");
+    let w = &faint["warnings"];
+    assert!(
+        w.as_array().unwrap().iter().any(|w| w["kind"] == "quiet"
+            && w["message"]
+                .as_str()
+                .unwrap()
+                .contains("below -40 dBFS: faint")),
+        "{w}"
+    );
+    let loud = run("loud.wav --normalize");
+    let peak = peak_dbfs(&d.join("loud.wav"));
+    assert!((peak + 1.0).abs() < 0.1, "{peak} dBFS");
+    assert!(
+        loud["warnings"]
+            .as_array()
+            .is_none_or(|w| w.iter().all(|w| w["kind"] != "quiet")),
+        "{loud}"
+    );
+}

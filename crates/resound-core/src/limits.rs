@@ -39,6 +39,10 @@ pub const AIR_DENSITY_KG_M3: f64 = 1.204;
 /// 16-bit PCM holds zeros there, and at any sane monitoring gain nobody hears it.
 pub const INAUDIBLE_DBFS: f64 = -90.0;
 
+/// A strike whose peak lies below this, dBFS, is faint: heard only turned up (a struck
+/// object at the default impact, heard at its physical level, peaks well above it).
+pub const FAINT_DBFS: f64 = -40.0;
+
 /// An acoustic transfer whose relative misfit at a mode's frequency exceeds this is not
 /// credible for that mode (warned about wherever it sounds).
 pub const POOR_TRANSFER_MISFIT: f64 = 0.9;

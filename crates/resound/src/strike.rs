@@ -141,6 +141,27 @@ pub fn level_for_file(strike: &mut Strike) -> Result<Option<String>> {
     Ok(level.note())
 }
 
+/// Brings a strike's peak to the file ceiling (−1 dBFS), up or down, instead of keeping its
+/// physical level; the gain goes into its report and its level warnings are dropped (the
+/// level is now chosen). Returns the note a front end shows.
+///
+/// # Errors
+/// Non-finite samples.
+pub fn normalize_for_file(strike: &mut Strike) -> Result<String> {
+    use resound_synth::render::{set_level, Level, CEILING};
+    let level = set_level(&mut [&mut strike.samples[..]], CEILING, Level::Normalize)?;
+    strike.info.gain_db = level.gain_db;
+    strike
+        .info
+        .warnings
+        .retain(|w| w.kind != resound_core::WarningKind::Quiet);
+    Ok(format!(
+        "normalized: peak {:.1} dBFS brought to −1 dBFS ({:+.1} dB)",
+        level.peak_dbfs(),
+        level.gain_db
+    ))
+}
+
 /// Measures the strike's peak into its report, with the inaudibility warning (replacing an
 /// earlier one): after anything that changes the level physically (a listener's distance).
 pub fn measure_level(s: &mut Strike) {
@@ -153,6 +174,21 @@ pub fn measure_level(s: &mut Strike) {
         .warnings
         .retain(|w| w.kind != resound_core::WarningKind::Quiet);
     s.info.warnings.extend(level.quiet_warning());
+    let faint = resound_core::limits::FAINT_DBFS;
+    let peak_dbfs = f64::from(level.peak_dbfs());
+    if s.info
+        .warnings
+        .iter()
+        .all(|w| w.kind != resound_core::WarningKind::Quiet)
+        && peak_dbfs < faint
+    {
+        s.info.warnings.push(resound_core::Warning::new(
+            resound_core::WarningKind::Quiet,
+            format!(
+                "the strike peaks at {peak_dbfs:.0} dBFS, below {faint:.0} dBFS: faint, heard only turned up (a slow or light impact, a hit near a nodal line, or a material's σ too small); normalize it if the level is not what you meant"
+            ),
+        ));
+    }
 }
 
 fn finish(mut s: Strike, t0: std::time::Instant) -> Strike {
