@@ -114,8 +114,13 @@ fn a_transfer_is_fitted_stored_and_heard_by_a_microphone() {
     let heard = strike(Some("0.6,0.4,0.2"), "heard.wav");
     let h: Value = serde_json::from_str(&ok(&heard)).unwrap();
     assert_eq!(h["mic"], serde_json::json!([0.6, 0.4, 0.2]));
+    // No word about the microphone (a built-in plastic's level may be called faint).
     assert!(
-        h["warnings"].as_array().unwrap().is_empty(),
+        h["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|w| w["kind"] == "quiet"),
         "{}",
         h["warnings"]
     );

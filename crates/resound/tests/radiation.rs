@@ -129,7 +129,16 @@ fn mirrored_microphones_hear_each_mode_of_a_symmetric_bar_alike() {
         "{changed} of {} levels changed",
         plain.modes.len()
     );
-    assert!(heard.info.warnings.is_empty(), "{:?}", heard.info.warnings);
+    // No word about the microphone (a built-in steel's level is faint, which is said too).
+    assert!(
+        heard
+            .info
+            .warnings
+            .iter()
+            .all(|w| w.kind == resound_core::WarningKind::Quiet),
+        "{:?}",
+        heard.info.warnings
+    );
     assert_eq!(heard.info.mic, Some([0.0, 0.5, 0.0]));
     let inside = render_strike(
         struck,
