@@ -313,7 +313,7 @@ fn render_strike<'py>(
     );
     p.mic_m = mic;
     let m = &model.inner;
-    let s = py
+    let mut s = py
         .detach(|| {
             resound::strike::render_strike(
                 resound::strike::Struck::Object {
@@ -326,6 +326,7 @@ fn render_strike<'py>(
             )
         })
         .map_err(err)?;
+    resound::strike::warn_if_faint(&mut s);
     Ok((s.samples.into_pyarray(py), report(py, &s.info)?))
 }
 

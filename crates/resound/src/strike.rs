@@ -138,7 +138,25 @@ pub fn level_for_file(strike: &mut Strike) -> Result<Option<String>> {
     let level =
         resound_synth::render::normalize(&mut strike.samples, resound_synth::render::CEILING)?;
     strike.info.gain_db = level.gain_db;
+    warn_if_faint(strike);
     Ok(level.note())
+}
+
+/// One strike kept at its physical level (a file, Python's array) below −40 dBFS, and above
+/// the inaudible tier (warned already): faint, said with the way out. Datasets (`batch`) keep
+/// physical levels on purpose and are not told.
+pub fn warn_if_faint(strike: &mut Strike) {
+    let faint = resound_core::limits::FAINT_DBFS;
+    let peak_dbfs = 20.0 * f64::from(strike.info.peak).log10();
+    let quiet = resound_core::WarningKind::Quiet;
+    if strike.info.warnings.iter().all(|w| w.kind != quiet) && peak_dbfs < faint {
+        strike.info.warnings.push(resound_core::Warning::new(
+            quiet,
+            format!(
+                "the strike peaks at {peak_dbfs:.0} dBFS, below {faint:.0} dBFS: faint, heard only turned up (a slow or light impact, a hit near a nodal line, or a material's σ too small); normalize it if the level is not what you meant"
+            ),
+        ));
+    }
 }
 
 /// Brings a strike's peak to the file ceiling (−1 dBFS), up or down, instead of keeping its
@@ -174,21 +192,6 @@ pub fn measure_level(s: &mut Strike) {
         .warnings
         .retain(|w| w.kind != resound_core::WarningKind::Quiet);
     s.info.warnings.extend(level.quiet_warning());
-    let faint = resound_core::limits::FAINT_DBFS;
-    let peak_dbfs = f64::from(level.peak_dbfs());
-    if s.info
-        .warnings
-        .iter()
-        .all(|w| w.kind != resound_core::WarningKind::Quiet)
-        && peak_dbfs < faint
-    {
-        s.info.warnings.push(resound_core::Warning::new(
-            resound_core::WarningKind::Quiet,
-            format!(
-                "the strike peaks at {peak_dbfs:.0} dBFS, below {faint:.0} dBFS: faint, heard only turned up (a slow or light impact, a hit near a nodal line, or a material's σ too small); normalize it if the level is not what you meant"
-            ),
-        ));
-    }
 }
 
 fn finish(mut s: Strike, t0: std::time::Instant) -> Strike {
