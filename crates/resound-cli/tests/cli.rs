@@ -2513,6 +2513,12 @@ fn a_mesh_in_millimetres_read_as_metres_is_named() {
     ok(&solved);
     let said = String::from_utf8_lossy(&solved.stderr).into_owned();
     assert!(said.contains("millimetres scale it by 0.001"), "{said}");
+    // A strike of it says so too (the solve's warnings are the strike's).
+    let args = "synth --material metal --mesh mm.stl --hit 150,0,5 -o mm.wav";
+    let struck = resound(&args.split(' ').collect::<Vec<_>>(), d);
+    ok(&struck);
+    let said = String::from_utf8_lossy(&struck.stderr).into_owned();
+    assert!(said.contains("300.000 m across"), "{said}");
     let scaled = resound(
         &[
             "modal",
@@ -2550,18 +2556,7 @@ fn a_mesh_in_millimetres_read_as_metres_is_named() {
 fn a_hit_off_the_surface_is_refused_before_any_solve() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&resound(
-        &[
-            "mesh",
-            "primitive",
-            "cylinder",
-            "--size",
-            "0.04,0.09",
-            "-o",
-            "cup.obj",
-        ],
-        d,
-    ));
+    cup(d);
     let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/recordings");
     std::fs::copy(assets.join("steel_nut_M4_2.wav"), d.join("strike.wav")).unwrap();
     for args in [
@@ -2620,18 +2615,7 @@ fn a_hit_off_the_surface_is_refused_before_any_solve() {
 fn absurd_impactors_bowls_and_rotations_are_refused_not_panics() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&resound(
-        &[
-            "mesh",
-            "primitive",
-            "cylinder",
-            "--size",
-            "0.04,0.09",
-            "-o",
-            "cup.obj",
-        ],
-        d,
-    ));
+    cup(d);
     for mass in ["1e308", "1e20", "0"] {
         let flag = format!("--impactor-mass={mass}");
         let args = [
@@ -2699,18 +2683,7 @@ fn the_library_and_a_material_file_are_never_outputs() {
             .replacen("\"glass\"", "\"mine\"", 1);
     std::fs::write(d.join("m.json"), &mine).unwrap();
     ok(&resound(&["materials", "import", "m.json"], d));
-    ok(&resound(
-        &[
-            "mesh",
-            "primitive",
-            "cylinder",
-            "--size",
-            "0.04,0.09",
-            "-o",
-            "cup.obj",
-        ],
-        d,
-    ));
+    cup(d);
     let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/recordings");
     std::fs::copy(assets.join("steel_nut_M4_2.wav"), d.join("strike.wav")).unwrap();
     let lib_s = lib.to_str().unwrap();
@@ -2812,18 +2785,7 @@ fn a_zero_mode_cap_and_a_directory_library_are_named_as_such() {
 fn a_faint_strike_is_named_and_normalize_brings_it_to_full_scale() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    ok(&resound(
-        &[
-            "mesh",
-            "primitive",
-            "cylinder",
-            "--size",
-            "0.04,0.09",
-            "-o",
-            "cup.obj",
-        ],
-        d,
-    ));
+    cup(d);
     let peak_dbfs = |p: &Path| {
         let a = resound::io::load_audio(p).unwrap();
         let peak = a.channels[0].iter().fold(0.0f32, |m, v| m.max(v.abs()));
@@ -2855,4 +2817,10 @@ fn a_faint_strike_is_named_and_normalize_brings_it_to_full_scale() {
             .is_none_or(|w| w.iter().all(|w| w["kind"] != "quiet")),
         "{loud}"
     );
+}
+
+/// The README's cup: a cylinder of radius 40 mm, 90 mm tall along z, centred on the origin.
+fn cup(d: &Path) {
+    let args = "mesh primitive cylinder --size 0.04,0.09 -o cup.obj";
+    ok(&resound(&args.split(' ').collect::<Vec<_>>(), d));
 }

@@ -509,7 +509,8 @@ pub fn render_strike_from(
             Ok((render_strike(struck, p)?, Vec::new()))
         }
         StrikeSource::Object { object, .. } => {
-            let (material, model, hit, note) = load_struck_object(source, progress)?;
+            let (material, model, hit, note, warnings) =
+                load_struck_object_warned(source, progress)?;
             let same_object =
                 material.was_estimated_on(&object.display().to_string(), hit.at.point);
             let struck = Struck::Object {
@@ -518,7 +519,10 @@ pub fn render_strike_from(
                 hit: &hit,
                 same_object,
             };
-            Ok((render_strike(struck, p)?, note.into_iter().collect()))
+            let mut strike = render_strike(struck, p)?;
+            // The solve's warnings (modes left out, a size in the wrong unit) are the strike's.
+            strike.info.warnings.splice(0..0, warnings);
+            Ok((strike, note.into_iter().collect()))
         }
     }
 }
@@ -643,6 +647,26 @@ fn load_struck_object(
     source: &StrikeSource,
     progress: resound_core::ProgressFn<'_>,
 ) -> Result<(SoundMaterial, ModalModel, Hit, Option<String>)> {
+    let (material, model, hit, note, warnings) = load_struck_object_warned(source, progress)?;
+    for w in warnings {
+        progress(resound_core::Progress::Warning(w));
+    }
+    Ok((material, model, hit, note))
+}
+
+/// [`load_struck_object`] with the solve's warnings returned (modes left out, a size in the
+/// wrong unit) for a report that lists them.
+#[allow(clippy::type_complexity)]
+fn load_struck_object_warned(
+    source: &StrikeSource,
+    progress: resound_core::ProgressFn<'_>,
+) -> Result<(
+    SoundMaterial,
+    ModalModel,
+    Hit,
+    Option<String>,
+    Vec<resound_core::Warning>,
+)> {
     let StrikeSource::Object {
         material,
         library,
@@ -655,7 +679,7 @@ fn load_struck_object(
     };
     let material = load_material_spec(material, library.as_deref())?;
     crate::object::check_hit_before_solve(object, object_params.scale, *hit_m)?;
-    let model = crate::object::load_object(object, object_params, progress)?;
+    let (model, warnings) = crate::object::load_object_warned(object, object_params, progress)?;
     let (hit, note) = crate::object::snap_hit(&model, *hit_m)?;
-    Ok((material, model, hit, note))
+    Ok((material, model, hit, note, warnings))
 }
