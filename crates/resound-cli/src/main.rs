@@ -179,6 +179,11 @@ fn advice(e: &anyhow::Error) -> Option<Advice> {
             "pass --resample-hz 48000".into()
         }
         resound::Error::Device(_) => "see --sample-rate (synth) or --block (scene)".into(),
+        resound::Error::Modal(resound::modal::ModelError::Eigen(
+            resound::modal::ModalError::NoConvergence { .. },
+        )) => "ask for fewer modes (the highest converge last): --modes N, or \
+            --mesh-modes N with synth"
+            .into(),
         r if r.is_too_many_modes() => "if the file is not in metres pass --scale (0.001 for \
             millimetres), else lower --max-freq-hz, ask for --modes N or raise --max-modes"
             .into(),

@@ -14,7 +14,8 @@ use std::path::PathBuf;
 pub struct ModalArgs {
     /// Closed surface (.obj .stl .ply) or tet mesh (.msh .node/.ele .mesh).
     pub mesh: PathBuf,
-    /// Material: a preset (steel, aluminium, glass, ceramic, wood, plastic) or E,nu,rho in Pa,-,kg/m^3.
+    /// Material: a name (steel, aluminium, glass, ceramic, wood, plastic; metal = steel,
+    /// porcelain = ceramic) or E,nu,rho in Pa,-,kg/m^3.
     #[arg(long, short = 'm')]
     pub material: String,
     /// Number of elastic modes (lowest first). Default: all modes up to --max-freq-hz.

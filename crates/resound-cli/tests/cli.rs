@@ -2824,3 +2824,70 @@ fn cup(d: &Path) {
     let args = "mesh primitive cylinder --size 0.04,0.09 -o cup.obj";
     ok(&resound(&args.split(' ').collect::<Vec<_>>(), d));
 }
+
+/// Issue 37: three vocabularies (built-ins, `modal` presets, `materials list`) become one: every
+/// name `materials list` shows is usable by `synth` and `modal`, and the list shows them all.
+#[test]
+fn one_material_vocabulary_every_name_listed_and_usable_everywhere() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    cup(d);
+    let list = ok(&resound(
+        &["materials", "list", "--library", "lib.sqlite"],
+        d,
+    ));
+    let names = [
+        "aluminium",
+        "ceramic",
+        "glass",
+        "metal",
+        "plastic",
+        "porcelain",
+        "steel",
+        "wood",
+    ];
+    for name in names {
+        assert!(
+            list.lines().any(|l| l.starts_with(&format!("{name} "))),
+            "{name} missing from\n{list}"
+        );
+        let wav = format!("{name}.wav");
+        ok(&resound(
+            &[
+                "synth",
+                "--material",
+                name,
+                "--mesh",
+                "cup.obj",
+                "--hit",
+                "0.04,0,0.03",
+                "--mesh-modes",
+                "8",
+                "-o",
+                &wav,
+            ],
+            d,
+        ));
+        let rmodal = format!("{name}.rmodal");
+        ok(&resound(
+            &[
+                "modal", "cup.obj", "-m", name, "--modes", "8", "-o", &rmodal,
+            ],
+            d,
+        ));
+    }
+    // The names mean one thing everywhere: metal's modes are steel's, porcelain's ceramic's.
+    let first_mode = |n: &str| -> f64 {
+        let v: Value = serde_json::from_str(&ok(&resound(
+            &["model", &format!("{n}.rmodal"), "--json"],
+            d,
+        )))
+        .unwrap();
+        v["modes"][0]["freq_hz"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{v}"))
+    };
+    assert_eq!(first_mode("metal"), first_mode("steel"));
+    assert_eq!(first_mode("porcelain"), first_mode("ceramic"));
+    assert!(first_mode("aluminium") != first_mode("steel"));
+}

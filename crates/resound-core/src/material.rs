@@ -51,10 +51,19 @@ const PRESETS: &[(&str, f64, f64, f64)] = &[
 ];
 
 impl Material {
-    /// Names accepted by [`Material::preset`] (`porcelain` is an alias of `ceramic`,
-    /// `aluminum` of `aluminium`).
-    pub const PRESET_NAMES: &'static [&'static str] =
-        &["steel", "aluminium", "glass", "ceramic", "wood", "plastic"];
+    /// Names accepted by [`Material::preset`]: the six presets and the built-in sound
+    /// materials' names (`metal` is steel, `porcelain` ceramic; `aluminum` spells aluminium),
+    /// so one vocabulary names a material everywhere.
+    pub const PRESET_NAMES: &'static [&'static str] = &[
+        "steel",
+        "aluminium",
+        "glass",
+        "ceramic",
+        "wood",
+        "plastic",
+        "metal",
+        "porcelain",
+    ];
 
     /// A custom material, validated.
     ///
@@ -114,6 +123,7 @@ impl Material {
         let lower = name.to_ascii_lowercase();
         let key = match lower.as_str() {
             "porcelain" => "ceramic",
+            "metal" => "steel",
             "aluminum" => "aluminium",
             k => k,
         };

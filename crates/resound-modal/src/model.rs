@@ -437,6 +437,18 @@ fn solve_fem(
             ),
         ));
     }
+    if einfo.loose_pairs > 0 {
+        info.warnings.push(Warning::new(
+            WarningKind::Model,
+            format!(
+                "{} of the {} modes kept met the residual tolerance {:.0e} only within {:.1e} (after every retry); their frequencies are still far more accurate than hearing",
+                einfo.loose_pairs,
+                keep.len(),
+                params.tolerance,
+                einfo.max_rel_residual
+            ),
+        ));
+    }
     info.warnings.extend(size_warning);
     if einfo.capped {
         info.warnings.push(Warning::new(

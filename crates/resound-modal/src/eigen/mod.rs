@@ -179,7 +179,14 @@ pub struct EigenInfo {
     /// The pairs wanted when only the lowest of them met the tolerance and were kept (at
     /// least three quarters of them; without a cutoff only).
     pub truncated_from: Option<usize>,
+    /// Pairs kept after the retries whose residual lies between the tolerance and
+    /// [`LOOSE_FACTOR`] times it (without a cutoff only; `max_rel_residual` says how far).
+    pub loose_pairs: usize,
 }
+
+/// How far above the tolerance a pair's residual may stay after every retry and still be
+/// kept (with a warning), without a cutoff.
+pub const LOOSE_FACTOR: f64 = 10.0;
 
 /// Scales every column of `phi` to φᵀMφ = 1 and returns Mφ (scaled alike); `None` when a column
 /// has no positive finite M-norm.
@@ -425,6 +432,7 @@ pub fn solve_generalized(
     // A third and last attempt widens the guard band: highly symmetric objects (a cube) have
     // clusters of equal eigenvalues that a narrow band leaves just short of the tolerance.
     let mut wide = false;
+    let mut accepted = params.tolerance;
     let checked: std::cell::RefCell<Option<Checked>> = Default::default();
     let (lambdas, phi, wanted, nev, max_res) = 'attempt: loop {
         let mut wanted = counted.unwrap_or(params.n_eigen).max(1).min(n);
@@ -572,13 +580,21 @@ pub fn solve_generalized(
             // tolerance however large the Krylov space grows (a 100 × 30 × 5 mm bar's modes
             // 165–205, at 230 kHz). The Sturm check below still certifies that no pair under
             // the last one kept is missing.
+            // Pairs within ten times the tolerance are kept too, counted: a relative residual
+            // ρ moves λ by about ρ²λ/gap, far below what anyone hears (the same bar's pairs
+            // stall at 1.0–2.3e-3 scattered over 230–270 kHz).
             let each = residuals_each(k, &lambdas[..wanted], phi.as_ref(), mphi.as_ref());
-            let prefix = each
-                .iter()
-                .position(|r| !(*r <= params.tolerance))
-                .unwrap_or(wanted);
+            let loose = LOOSE_FACTOR * params.tolerance;
+            let prefix = each.iter().position(|r| !(*r <= loose)).unwrap_or(wanted);
             if prefix >= 3 * wanted / 4 && prefix > 0 {
-                info.truncated_from = Some(wanted);
+                if prefix < wanted {
+                    info.truncated_from = Some(wanted);
+                }
+                info.loose_pairs = each[..prefix]
+                    .iter()
+                    .filter(|&&r| r > params.tolerance)
+                    .count();
+                accepted = loose;
                 max_res = each[..prefix].iter().copied().fold(0.0, f64::max);
                 break 'attempt (lambdas, phi, prefix, nev, max_res);
             }
@@ -599,7 +615,7 @@ pub fn solve_generalized(
     lambdas.truncate(wanted);
     let phi = phi.subcols(0, wanted).to_owned();
     info.eigen_s = t1.elapsed().as_secs_f64();
-    if !(max_res <= params.tolerance) {
+    if !(max_res <= accepted) {
         return Err(ModalError::NoConvergence {
             converged: info.converged,
             requested: nev,

@@ -446,37 +446,46 @@ fn issue_15_any_mode_count_converges_on_a_cube_and_keeps_the_lower_modes() {
 /// Issue 37: 200 modes (the estimate's default) of the demo's 100 × 30 × 5 mm bar failed after
 /// three Lanczos runs (31 s): its highest wanted pairs, near 230 kHz, stall just above the
 /// residual tolerance. The lowest pairs that pass are kept, certified by the Sturm count, and
-/// a warning says how many were left out.
+/// a warning says how many were left out. A 100 × 20 × 10 mm bar (what `synth` makes of a
+/// new user's bar) stalled at 1.0–2.3e-3 on pairs scattered over 230–270 kHz: pairs within
+/// ten times the tolerance are kept, counted in a warning.
 #[test]
 fn issue_37_the_demo_bar_solves_with_default_settings_and_says_what_it_left_out() {
     let ceramic = Material::preset("ceramic").unwrap();
-    let solved = ModalBuilder::surface(&primitive::bar([0.1, 0.03, 0.005]), &ceramic)
-        .params(ModalParams {
-            n_modes: Some(200),
-            ..Default::default()
-        })
-        .solve()
-        .unwrap();
-    let (model, info) = (solved.model, solved.info);
-    let n = model.n_modes();
-    // Every kept pair met the tolerance, and inertia found no pair missing under the last.
-    assert!(
-        info.eigen.max_rel_residual <= 1e-3,
-        "{}",
-        info.eigen.max_rel_residual
-    );
-    assert!(info.eigen.sturm_count.is_some(), "{:?}", info.eigen);
-    assert!(n >= 150, "{n} modes");
-    let freqs = model.freqs_hz();
-    assert!(freqs.windows(2).all(|w| w[0] <= w[1]), "{freqs:?}");
-    // The audible band is complete: the highest kept mode lies far above 24 kHz.
-    assert!(freqs[n - 1] > 100e3, "{}", freqs[n - 1]);
-    // Fewer than asked is said, with the count kept; all of them needs no word.
-    let said = info.warnings.iter().any(|w| {
-        w.message
-            .contains(&format!("only the lowest {n} of the 200 modes"))
-    });
-    assert_eq!(said, n < 200, "{n} modes; {:?}", info.warnings);
+    for size in [[0.1, 0.03, 0.005], [0.1, 0.02, 0.01]] {
+        let solved = ModalBuilder::surface(&primitive::bar(size), &ceramic)
+            .params(ModalParams {
+                n_modes: Some(200),
+                ..Default::default()
+            })
+            .solve()
+            .unwrap();
+        let (model, info) = (solved.model, solved.info);
+        let n = model.n_modes();
+        // Every kept pair met ten times the tolerance, and inertia found no pair missing
+        // under the last.
+        let e = &info.eigen;
+        assert!(e.max_rel_residual <= 1e-2, "{size:?}: {e:?}");
+        assert!(e.sturm_count.is_some(), "{size:?}: {e:?}");
+        assert!(n >= 150, "{size:?}: {n} modes");
+        let freqs = model.freqs_hz();
+        assert!(freqs.windows(2).all(|w| w[0] <= w[1]), "{freqs:?}");
+        // The audible band is complete: the highest kept mode lies far above 24 kHz.
+        assert!(freqs[n - 1] > 100e3, "{}", freqs[n - 1]);
+        // Fewer than asked is said, with the count kept; all of them needs no word.
+        let said = info.warnings.iter().any(|w| {
+            w.message
+                .contains(&format!("only the lowest {n} of the 200 modes"))
+        });
+        assert_eq!(said, n < 200, "{size:?}: {n} modes; {:?}", info.warnings);
+        // Pairs kept above the tolerance are counted, and only then.
+        let loose = info.warnings.iter().any(|w| {
+            w.message
+                .contains("met the residual tolerance 1e-3 only within")
+        });
+        assert_eq!(loose, e.loose_pairs > 0, "{size:?}: {:?}", info.warnings);
+        assert_eq!(e.loose_pairs > 0, e.max_rel_residual > 1e-3, "{e:?}");
+    }
 }
 
 /// Issue 37: the README's cup (a cylinder, r 40 mm, 90 mm tall) with 200 modes was refused by

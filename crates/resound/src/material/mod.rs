@@ -112,6 +112,9 @@ pub enum Origin {
     Estimated,
     /// Ren's Table I in mesh units, seeded by an earlier version: remove it.
     LegacyTable1,
+    /// An elastic preset's E/ρ with the damping of the matching built-in
+    /// ([`preset_sound_material`]).
+    Preset,
 }
 
 impl Origin {
@@ -122,6 +125,7 @@ impl Origin {
             Origin::Library => "",
             Origin::Estimated => "(estimated)",
             Origin::LegacyTable1 => "(Ren Table I in mesh units, from an old library: remove it)",
+            Origin::Preset => "(preset: its E/rho, a built-in's damping)",
         }
     }
 }
@@ -262,6 +266,22 @@ pub fn list_materials(lib: Option<&Library>) -> Result<Vec<(SoundMaterial, Origi
             out.push((b, Origin::Builtin));
         }
     }
+    // The elastic presets a plain name reaches too (steel, aluminium, ceramic), as
+    // `resolve_material` finds them: one vocabulary in every command.
+    for &n in Material::PRESET_NAMES {
+        if out.iter().any(|(m, _)| m.name == n) {
+            continue;
+        }
+        if let Some(m) = preset_sound_material(n) {
+            out.push((
+                SoundMaterial {
+                    name: n.to_string(),
+                    ..m
+                },
+                Origin::Preset,
+            ));
+        }
+    }
     out.sort_by(|a, b| a.0.name.cmp(&b.0.name));
     Ok(out)
 }
@@ -301,7 +321,7 @@ fn table_damping(preset: &str) -> Option<(f64, f64)> {
 /// σ = [`resound_core::DEFAULT_SIGMA`].
 pub fn preset_sound_material(name: &str) -> Option<SoundMaterial> {
     let m = Material::preset(name).ok()?;
-    let (alpha, beta) = table_damping(name)?;
+    let (alpha, beta) = table_damping(&m.name)?;
     Some(SoundMaterial::rayleigh(
         &format!("preset:{name}"),
         alpha,
@@ -325,7 +345,8 @@ pub fn resolve_material(
     let m = if let Some(p) = spec.strip_prefix("preset:") {
         preset_sound_material(p).ok_or_else(|| {
             invalid(format!(
-                "unknown preset {p:?} (steel, aluminium, glass, ceramic, wood, plastic)"
+                "unknown preset {p:?} ({})",
+                Material::PRESET_NAMES.join(", ")
             ))
         })?
     } else {
@@ -344,8 +365,9 @@ pub fn resolve_material(
                 Some(m) => m,
                 None => {
                     return Err(invalid(format!(
-                        "no material {spec:?} in the library, no such file, and neither a \
-                         built-in (wood, plastic, metal, glass, porcelain) nor a preset"
+                        "no material {spec:?} in the library, no such file, and not a built-in \
+                         name (wood, plastic, metal, glass, porcelain, steel, aluminium, \
+                         ceramic); `materials list` shows every name"
                     )))
                 }
             }
