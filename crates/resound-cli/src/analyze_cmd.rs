@@ -61,7 +61,7 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
     };
     let select = a.take.selection();
     if a.joint {
-        let rec = a.take.recording();
+        let rec = a.take.recording()?;
         let (out, _) = crate::util::with_bar("analyze", |cb| {
             analyze_joint(&a.audio, &rec, &params, select, &Default::default(), cb)
         })?;
@@ -72,7 +72,7 @@ pub fn run(a: AnalyzeArgs) -> Result<()> {
         a.audio.len() == 1 && !select.every_channel && !select.every_strike,
         "several takes (files, --every-channel, --every-strike) are analysed together with --joint"
     );
-    let (rec, res) = analyze_file(&a.audio[0], &a.take.recording(), &params)?;
+    let (rec, res) = analyze_file(&a.audio[0], &a.take.recording()?, &params)?;
     crate::util::warn_all(&res.warnings);
     let out = AnalysisReport::new(&a.audio[0].display().to_string(), &rec.codec, &res);
     if let Some(p) = &a.plot {

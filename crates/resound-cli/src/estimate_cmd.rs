@@ -84,7 +84,7 @@ pub fn run(a: EstimateArgs) -> Result<()> {
     }
     let job = EstimateFiles {
         recordings: a.audio.clone(),
-        recording: a.take.recording(),
+        recording: a.take.recording()?,
         analyze: AnalyzeParams {
             highpass_hz: a.highpass_hz,
             strike: a.take.strike_index()?,
@@ -102,7 +102,17 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             ..Default::default()
         },
     };
-    let out = crate::util::with_bar("estimate", |cb| estimate_files(&job, cb))?;
+    let out = match crate::util::with_bar("estimate", |cb| estimate_files(&job, cb)) {
+        Ok(out) => out,
+        Err(e) => {
+            // A refused estimate still shows its report; nothing is written or stored.
+            if let resound::Error::Implausible(_, Some(info)) = e.root() {
+                warn_all(&info.warnings);
+                crate::util::show(a.json, info.as_ref())?;
+            }
+            return Err(e.into());
+        }
+    };
     crate::util::notes(&out.notes);
     let (material, info) = (&out.material, &out.info);
     warn_all(&info.warnings);

@@ -147,7 +147,9 @@ enum Advice {
 /// What to do about a library error, in this CLI's flags: the library names no flag, so the
 /// advice for each of its error variants lives here (Python says the same with its keywords).
 fn advice(e: &anyhow::Error) -> Option<Advice> {
-    const FLAGS: [(&str, &str); 9] = [
+    const FLAGS: [(&str, &str); 11] = [
+        ("channel", "--channel"),
+        ("strike", "--strike"),
         ("gain_db", "--gain-db"),
         ("max_duration_s", "--max-duration-s"),
         ("floor_db", "--floor-db"),
@@ -171,7 +173,7 @@ fn advice(e: &anyhow::Error) -> Option<Advice> {
         resound::Error::Model(resound::core::ModalModelError::PoissonMismatch { .. }) => {
             "or pass --keep-nu to take only its E/ρ".into()
         }
-        resound::Error::Implausible(_) => "keep it anyway with --allow-implausible".into(),
+        resound::Error::Implausible(..) => "keep it anyway with --allow-implausible".into(),
         resound::Error::NoLiveAudio => "rebuild with `cargo build --release --features live`, \
             or render to a file"
             .into(),

@@ -198,7 +198,8 @@ pub fn check_paths<I: AsRef<Path>, O: AsRef<Path>>(
 /// Which part of a recording to take (shared by `analyze` and `estimate`).
 #[derive(clap::Args, Debug, Clone)]
 pub struct TakeArgs {
-    /// Use channel K (0-based) instead of the mix of all channels.
+    /// Use channel K (1 = the first, the left of a stereo file) instead of the mix of all
+    /// channels.
     #[arg(long, value_name = "K")]
     pub channel: Option<usize>,
     /// Resample to this rate first (rubato; e.g. 48000 for a 384 kHz file).
@@ -220,11 +221,11 @@ pub struct TakeArgs {
 
 impl TakeArgs {
     /// The library's recording parameters.
-    pub fn recording(&self) -> resound::recording::RecordingParams {
-        resound::recording::RecordingParams {
-            channel: self.channel,
+    pub fn recording(&self) -> Result<resound::recording::RecordingParams> {
+        Ok(resound::recording::RecordingParams {
+            channel: resound::recording::index_from_1("channel", self.channel)?,
             resample_hz: self.resample_hz,
-        }
+        })
     }
 
     /// The library's take selection.
@@ -237,11 +238,7 @@ impl TakeArgs {
 
     /// The strike, 0-based (`None`: the loudest clean one).
     pub fn strike_index(&self) -> Result<Option<usize>> {
-        match self.strike {
-            Some(0) => anyhow::bail!("--strike counts from 1"),
-            Some(k) => Ok(Some(k - 1)),
-            None => Ok(None),
-        }
+        Ok(resound::recording::index_from_1("strike", self.strike)?)
     }
 }
 

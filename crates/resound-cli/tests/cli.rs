@@ -478,8 +478,18 @@ fn analyze_bad_input_exits_2() {
     );
     fails_with(
         &resound(&["analyze", "hit.wav", "--channel", "3"], d),
-        "1 channel(s)",
+        "channel 3 requested but the file has 1 channel(s) (channels count from 1)",
     );
+    // Channels count from 1, like strikes (issue 37: they counted from 0 and 1).
+    fails_with(
+        &resound(&["analyze", "hit.wav", "--channel", "0"], d),
+        "channels count from 1 (1 is the first), not 0",
+    );
+    fails_with(
+        &resound(&["analyze", "hit.wav", "--strike", "0"], d),
+        "strikes count from 1 (1 is the first), not 0",
+    );
+    ok(&resound(&["analyze", "hit.wav", "--channel", "1"], d));
     fails_with(
         &resound(&["analyze", "hit.wav", "--min-db=-5"], d),
         "min_db",
@@ -2135,7 +2145,7 @@ fn estimate_combines_microphones_and_files_into_one_material() {
             "stereo.wav",
             "--every-channel",
             "--channel",
-            "0",
+            "1",
             "--mesh",
             "bar.rmodal",
             "--hit",
@@ -2890,4 +2900,114 @@ fn one_material_vocabulary_every_name_listed_and_usable_everywhere() {
     assert_eq!(first_mode("metal"), first_mode("steel"));
     assert_eq!(first_mode("porcelain"), first_mode("ceramic"));
     assert!(first_mode("aluminium") != first_mode("steel"));
+}
+
+/// Issue 37: an estimate that pairs 1 of 26 recorded modes was stored with exit 0. Every
+/// implausible finding now refuses the material (non-zero exit, nothing stored, no file
+/// written) while the report still prints; `--allow-implausible` keeps it.
+#[test]
+fn an_implausible_estimate_prints_its_report_and_is_not_stored() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/recordings");
+    std::fs::copy(assets.join("steel_nut_M4_2.wav"), d.join("strike.wav")).unwrap();
+    // A 0.4 m sphere for a steel nut on a small ramp: its modes cannot be matched.
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "sphere",
+            "--size",
+            "0.2",
+            "-o",
+            "big.obj",
+        ],
+        d,
+    ));
+    let args = "estimate strike.wav --mesh big.obj --hit 0.2,0,0 --modes 20 --name wrong \
+                --library lib.sqlite -o wrong.json";
+    let args: Vec<&str> = args.split_whitespace().collect();
+    let out = resound(&args, d);
+    fails_with(
+        &out,
+        "the estimate is not credible: only 1 of the 26 recorded modes",
+    );
+    fails_with(&out, "--allow-implausible");
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(report.contains("recorded modes paired"), "{report}");
+    assert!(!d.join("wrong.json").exists());
+    let list = ok(&resound(
+        &["materials", "list", "--library", "lib.sqlite"],
+        d,
+    ));
+    assert!(!list.contains("wrong"), "{list}");
+    let mut allowed = args.clone();
+    allowed.push("--allow-implausible");
+    ok(&resound(&allowed, d));
+    assert!(d.join("wrong.json").exists());
+    let list = ok(&resound(
+        &["materials", "list", "--library", "lib.sqlite"],
+        d,
+    ));
+    assert!(list.lines().any(|l| l.starts_with("wrong ")), "{list}");
+}
+
+/// Issue 37: a combined estimate warned that a take was left out and then listed it with a
+/// σ of 1e25, and its count of recordings did not add up. Left-out takes are counted apart
+/// and listed as left out; channels are labelled as `--channel` counts them (from 1).
+#[test]
+fn a_left_out_take_is_counted_apart_and_listed_as_left_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/recordings");
+    std::fs::copy(assets.join("steel_nut_M4_2.wav"), d.join("strike.wav")).unwrap();
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "bar",
+            "--size",
+            "0.1,0.03,0.005",
+            "-o",
+            "ramp.obj",
+        ],
+        d,
+    ));
+    let args = "estimate strike.wav --mesh ramp.obj --modes 80 --hit 0.02,0.01,0.0025 \
+                --every-strike --every-channel --allow-implausible";
+    let out = resound(&args.split_whitespace().collect::<Vec<_>>(), d);
+    let report = ok(&out);
+    let err = String::from_utf8_lossy(&out.stderr);
+    let warned = err.lines().filter(|l| l.contains("was left out")).count();
+    let listed: Vec<&str> = report
+        .lines()
+        .filter(|l| l.ends_with("left out (nothing above its floor)"))
+        .collect();
+    assert!(warned > 0, "this case has a left-out take: {err}");
+    assert_eq!(listed.len(), warned, "{report}");
+    assert!(listed.iter().all(|l| !l.contains("sigma")), "{report}");
+    let takes = report
+        .lines()
+        .filter(|l| l.starts_with("  strike.wav"))
+        .count();
+    let head = format!(
+        "{} recordings combined ({takes} analysed, {warned} left out)",
+        takes - warned
+    );
+    assert!(report.contains(&head), "{head} in {report}");
+    // Labels and `--channel` count alike: the stereo file's channels are 1 and 2.
+    assert!(
+        report.contains("strike.wav channel 1 strike 1:"),
+        "{report}"
+    );
+    assert!(
+        report.contains("strike.wav channel 2 strike 1:"),
+        "{report}"
+    );
+    assert!(!report.contains("channel 0"), "{report}");
+    ok(&resound(&["analyze", "strike.wav", "--channel", "2"], d));
+    fails_with(
+        &resound(&["analyze", "strike.wav", "--channel", "3"], d),
+        "has 2 channel(s)",
+    );
 }

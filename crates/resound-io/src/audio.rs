@@ -46,8 +46,8 @@ impl AudioClip {
                     parse_err(
                         path,
                         format!(
-                            "channel {} requested but the file has {} channel(s) (channels count from 0)",
-                            c,
+                            "channel {} requested but the file has {} channel(s) (channels count from 1)",
+                            c + 1,
                             self.channels.len()
                         ),
                     )

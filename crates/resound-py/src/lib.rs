@@ -47,7 +47,7 @@ fn err(e: impl Into<anyhow::Error>) -> PyErr {
         Some(resound::Error::Exists(_)) => {
             ResoundError::new_err(format!("{e:#}; pass replace=True to replace it"))
         }
-        Some(resound::Error::Implausible(_)) => {
+        Some(resound::Error::Implausible(..)) => {
             ResoundError::new_err(format!("{e:#}; keep it anyway with allow_implausible=True"))
         }
         Some(r) if r.is_too_many_modes() => ResoundError::new_err(format!(
@@ -108,10 +108,7 @@ fn analyze_params(
     Ok(resound::signal::AnalyzeParams {
         max_modes,
         min_db,
-        strike: match strike {
-            Some(0) => return Err(ResoundError::new_err("strike counts from 1")),
-            s => s.map(|k| k - 1),
-        },
+        strike: resound::recording::index_from_1("strike", strike).map_err(err)?,
         ..Default::default()
     })
 }
@@ -130,7 +127,7 @@ fn analyze_file<'py>(
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyAny>)> {
     let params = analyze_params(strike, max_modes, min_db)?;
     let rec = resound::recording::RecordingParams {
-        channel,
+        channel: resound::recording::index_from_1("channel", channel).map_err(err)?,
         resample_hz,
     };
     let report = py.detach(|| {
@@ -162,7 +159,7 @@ fn analyze_joint<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let params = analyze_params(strike, max_modes, min_db)?;
     let rec = resound::recording::RecordingParams {
-        channel,
+        channel: resound::recording::index_from_1("channel", channel).map_err(err)?,
         resample_hz,
     };
     let select = resound::recording::TakeSelection {
@@ -243,7 +240,7 @@ fn estimate_material<'py>(
         let take = match (&path, slice, sample_rate) {
             (Some(p), None, None) => {
                 let rec = resound::recording::RecordingParams {
-                    channel,
+                    channel: resound::recording::index_from_1("channel", channel)?,
                     resample_hz: None,
                 };
                 resound::recording::AnalysedTake {

@@ -70,7 +70,7 @@ def test_a_real_recording_analyses_the_same_from_its_file_its_array_and_the_cli(
         fs, n_ch = w.getframerate(), w.getnchannels()
         pcm = np.frombuffer(w.readframes(w.getnframes()), dtype="<i2").reshape(-1, n_ch)
     assert n_ch == 2
-    for channel in (0, 1):
+    for channel in (1, 2):
         from_file = resound.analyze(wav, channel=channel)
         # (samples, channels) int16 as the stdlib reads it: scaled by 1/32768 like the decoder.
         from_array = resound.analyze(pcm, sample_rate=fs, channel=channel)
@@ -78,9 +78,15 @@ def test_a_real_recording_analyses_the_same_from_its_file_its_array_and_the_cli(
         assert np.allclose(from_array.freq_hz, from_file.freq_hz, rtol=1e-9)
         assert np.allclose(from_array.damping_per_s, from_file.damping_per_s, rtol=1e-6)
         assert np.allclose(from_array.amplitude, from_file.amplitude, rtol=1e-6)
-    left = resound.analyze(wav, channel=0)
-    # The CLI writes the same document.
-    out = cli("analyze", str(wav), "--channel", "0", "--json", "-", cwd=tmp_path)
+    left = resound.analyze(wav, channel=1)
+    # Channels count from 1, like strikes, for files and arrays alike (issue 37).
+    for audio, kw in ((wav, {}), (pcm, {"sample_rate": fs})):
+        with pytest.raises(resound.ResoundError, match="count from 1"):
+            resound.analyze(audio, channel=0, **kw)
+        with pytest.raises(resound.ResoundError, match="count from 1"):
+            resound.analyze(audio, strike=0, **kw)
+    # The CLI writes the same document (channels count from 1 in both, like strikes).
+    out = cli("analyze", str(wav), "--channel", "1", "--json", "-", cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     cli_f = np.array([m["freq_hz"] for m in doc["modes"]])

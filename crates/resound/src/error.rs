@@ -65,7 +65,7 @@ pub enum Error {
     /// ranges): not returned unless asked for. Front ends add how to ask
     /// (`--allow-implausible`, `allow_implausible=True`).
     #[error("the estimate is not credible: {0}")]
-    Implausible(String),
+    Implausible(String, Option<Box<crate::material::EstimateInfo>>),
     /// The audio device failed (live playback).
     #[error("audio device: {0}")]
     Device(String),

@@ -6,20 +6,26 @@
 //!
 //! ```
 //! use resound::prelude::*;
-//! # let dir = tempfile::tempdir().unwrap();
-//! # let wav = dir.path().join("strike.wav");
-//! # let tone = resound::core::damped::synthesize(&[DampedMode { freq_hz: 1200.0, damping_per_s: 8.0, amplitude: 0.3, phase_rad: 0.0 }, DampedMode { freq_hz: 3100.0, damping_per_s: 20.0, amplitude: 0.1, phase_rad: 0.0 }], 44_100.0, 44_100);
-//! # let tone: Vec<f32> = std::iter::repeat(0.0).take(2205).chain(tone.iter().map(|&v| v as f32)).collect();
-//! # resound::io::write_wav(&wav, &tone, 44_100, resound::io::WavFormat::Float32).unwrap();
 //! // The recorded object: a 100 × 30 × 5 mm bar, struck at (0.02, 0.01, 0.0025).
 //! let bar = primitive::bar([0.1, 0.03, 0.005]);
 //! let aluminium = Material::preset("aluminium")?;
 //! let recorded = ModalBuilder::surface(&bar, &aluminium).modes(30).solve()?.model;
 //! let hit = recorded.hit([0.02, 0.01, 0.0025])?;
+//! # // Stands in for a recording: the built-in "metal" on that bar.
+//! # let dir = tempfile::tempdir().unwrap();
+//! # let wav = dir.path().join("strike.wav");
+//! # let metal = SoundMaterial::builtin_named("metal").unwrap();
+//! # let struck = Struck::Object { material: &metal, model: &recorded, hit: &hit, same_object: true };
+//! # let sp = StrikeParams { duration_s: 1.0, ..Default::default() };
+//! # let take = render_strike(struck, &sp)?.samples;
+//! # let peak = take.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+//! # let lead: Vec<f32> = std::iter::repeat(0.0).take(2400).chain(take.iter().map(|v| 0.5 * v / peak)).collect();
+//! # resound::io::write_wav(&wav, &lead, sp.sample_rate_hz, resound::io::WavFormat::Float32).unwrap();
 //! // Its modes, and the material behind them (α, β, γ, σ and the residual).
 //! let (_, analysis) = analyze_file(&wav, &Default::default(), &Default::default())?;
 //! let params = EstimateMaterialParams { name: "bar".into(), ..Default::default() };
-//! let (material, _) = estimate_material(&analysis, &recorded, &hit, &params, &|_| {})?;
+//! let (material, report) = estimate_material(&analysis, &recorded, &hit, &params, &|_| {})?;
+//! assert!(report.fit.paired_modes >= 3, "{report}");
 //! // The same material on a plate, struck by a 5 mm steel ball at 2 m/s.
 //! let plate = primitive::bar([0.2, 0.15, 0.004]);
 //! let other = ModalBuilder::surface(&plate, &aluminium).modes(30).solve()?.model;

@@ -136,10 +136,27 @@ pub struct Recording {
     pub codec: String,
 }
 
+/// The index behind a count from 1, as every front end numbers channels and strikes (1 is
+/// the first: the left channel of a stereo file, the first strike of a file); `what` names the
+/// setting (`channel`, `strike`).
+///
+/// # Errors
+/// [`Error::Param`] for 0.
+pub fn index_from_1(what: &'static str, k: Option<usize>) -> Result<Option<usize>> {
+    match k {
+        Some(0) => Err(Error::Param {
+            field: what,
+            message: format!("{what}s count from 1 (1 is the first), not 0"),
+        }),
+        k => Ok(k.map(|k| k - 1)),
+    }
+}
+
 /// Which part of a file to take.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RecordingParams {
-    /// Channel K (0-based) instead of the mix of all channels.
+    /// Channel index (0 is the first) instead of the mix of all channels; front ends count
+    /// channels from 1 ([`index_from_1`]).
     pub channel: Option<usize>,
     /// Resample to this rate first (rubato), Hz.
     pub resample_hz: Option<u32>,

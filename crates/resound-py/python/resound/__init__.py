@@ -107,8 +107,10 @@ def _opt_path(p: Optional[PathLike]) -> Optional[str]:
 def _mono(audio: np.ndarray, channel: Optional[int]) -> np.ndarray:
     a = np.asarray(audio)
     if a.ndim == 1:
-        if channel not in (None, 0):
-            raise ResoundError(f"channel {channel} does not exist (1 channel)")
+        if channel == 0:
+            raise ResoundError("channel: channels count from 1 (1 is the first), not 0")
+        if channel not in (None, 1):
+            raise ResoundError(f"channel {channel} does not exist (1 channel; channels count from 1)")
         x = a
     elif a.ndim == 2:
         # (channels, samples), as soundfile.read(...).T and librosa give; a (samples, channels)
@@ -117,10 +119,12 @@ def _mono(audio: np.ndarray, channel: Optional[int]) -> np.ndarray:
             a = a.T
         if channel is None:
             x = a.mean(axis=0)
-        elif 0 <= channel < a.shape[0]:
-            x = a[channel]
+        elif channel == 0:
+            raise ResoundError("channel: channels count from 1 (1 is the first), not 0")
+        elif 1 <= channel <= a.shape[0]:
+            x = a[channel - 1]
         else:
-            raise ResoundError(f"channel {channel} does not exist ({a.shape[0]} channels)")
+            raise ResoundError(f"channel {channel} does not exist ({a.shape[0]} channels; channels count from 1)")
     else:
         raise ResoundError(f"audio must be shaped (samples,) or (channels, samples), got {a.shape}")
     if not np.issubdtype(x.dtype, np.number):
@@ -143,7 +147,7 @@ def analyze(audio: Union[PathLike, np.ndarray], sample_rate: Optional[float] = N
         audio: a file (WAV, FLAC, OGG Vorbis, MP3) or samples shaped (samples,) or
             (channels, samples), full scale = 1 (integer arrays are scaled).
         sample_rate: the samples' rate, Hz (arrays only).
-        channel: which channel, from 0 (default: the mix).
+        channel: which channel, counting from 1 like strikes (1 is the first; default: the mix).
         strike: which strike of several, from 1 (default: the loudest clean one).
         resample_hz: resample a file to this rate first.
         max_modes: most modes kept.

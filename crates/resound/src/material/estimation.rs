@@ -55,6 +55,9 @@ impl Default for EstimateMaterialParams {
     }
 }
 
+/// Recorded modes an estimate must pair with estimated ones to determine α, β and γ.
+pub const MIN_PAIRED_MODES: usize = 3;
+
 /// What [`estimate_material`] found besides the material: the estimate's report, the one
 /// document every front end shows (`resound estimate --json` prints it, Python receives it as a
 /// dict made from it, the studio serves it).
@@ -149,16 +152,27 @@ impl std::fmt::Display for EstimateInfo {
         let Some(sp) = &self.spread else {
             return writeln!(f, "{}", self.strike_reason);
         };
-        let n = self.takes.len();
+        let n = self.takes.iter().filter(|t| !t.left_out).count();
+        let out = self.takes.len() - n;
+        let of = if out > 0 {
+            format!(" ({} analysed, {out} left out)", self.takes.len())
+        } else {
+            String::new()
+        };
         writeln!(
             f,
-            "{n} recordings combined; their own estimates spread by alpha {:.1} %, beta {:.1} %, \
-             gamma {:.1} % (relative SD; the combined value's standard error is that over √{n})",
+            "{n} recordings combined{of}; their own estimates spread by alpha {:.1} %, beta \
+             {:.1} %, gamma {:.1} % (relative SD; the combined value's standard error is that \
+             over √{n})",
             100.0 * sp.alpha_rel_sd,
             100.0 * sp.beta_rel_sd,
             100.0 * sp.gamma_rel_sd,
         )?;
         for t in &self.takes {
+            if t.left_out {
+                writeln!(f, "  {}: left out (nothing above its floor)", t.label)?;
+                continue;
+            }
             writeln!(
                 f,
                 "  {}: sigma {:.3e}, metric {:.3e} (alone: alpha {:.3e}, beta {:.3e}, gamma \
@@ -217,6 +231,10 @@ pub struct TakeReport {
     pub alone: RayleighParams,
     /// Its metric alone.
     pub alone_metric: f64,
+    /// Left out of the combined estimate (its loudness image held nothing above its floor):
+    /// its σ and metrics mean nothing.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub left_out: bool,
 }
 
 /// Relative standard deviations of the takes' own estimates: the measured variation between
@@ -489,15 +507,6 @@ fn estimate_takes(
             p.gamma, GAMMA_RANGE_M2_S2.0, GAMMA_RANGE_M2_S2.1
         )));
     }
-    if !implausible.is_empty() && !params.allow_implausible {
-        return Err(Error::Implausible(
-            implausible
-                .iter()
-                .map(|w| w.message.as_str())
-                .collect::<Vec<_>>()
-                .join("; "),
-        ));
-    }
     let estimated = resound_estimate::forward_modes(
         &side.eigenvalues0,
         &side.gains0,
@@ -557,7 +566,9 @@ fn estimate_takes(
                 .iter()
                 .zip(&j.individual)
                 .zip(j.sigmas.iter().zip(&j.take_metrics))
-                .map(|((t, alone), (&sigma, &metric))| TakeReport {
+                .enumerate()
+                .map(|(k, ((t, alone), (&sigma, &metric)))| TakeReport {
+                    left_out: j.left_out.contains(&k),
                     label: t.label.to_string(),
                     sigma,
                     metric,
@@ -599,15 +610,19 @@ fn estimate_takes(
         }
     };
     if p.alpha < 1e-6 {
-        warnings.push(Warning::new(WarningKind::Implausible, format!(
-            "α = {:.1e} 1/s sits at its bound (0): no mass damping is seen; α is not determined by this recording",
-            p.alpha
-        )));
+        warnings.push(Warning::new(
+            WarningKind::Model,
+            format!(
+                "α = {:.1e} 1/s sits at its bound (0): no mass damping is seen in this recording",
+                p.alpha
+            ),
+        ));
     }
-    if fit.paired_modes < 2 {
+    if fit.paired_modes < MIN_PAIRED_MODES {
         warnings.push(Warning::new(WarningKind::Implausible, format!(
-            "only {} recorded mode(s) lie within 3 % of an estimated one: γ rests on one mode and α, β are not determined",
-            fit.paired_modes
+            "only {} of the {} recorded modes lie within 3 % of an estimated one: α, β and γ are not determined by fewer than {MIN_PAIRED_MODES}",
+            fit.paired_modes,
+            fit.recorded_modes,
         )));
     } else if fit.loudness_share < 0.25 {
         warnings.push(Warning::new(WarningKind::Implausible, format!(
@@ -654,6 +669,18 @@ fn estimate_takes(
         passes,
         transfer_fit_s,
     };
+    // Every implausible finding (β at its floor, γ outside solids, too few modes paired, too
+    // little of the loudness explained, …) refuses the material unless asked for; the error
+    // carries the report, so a front end still shows what was found.
+    let reasons: Vec<&str> = info
+        .warnings
+        .iter()
+        .filter(|w| w.kind == WarningKind::Implausible)
+        .map(|w| w.message.as_str())
+        .collect();
+    if !reasons.is_empty() && !params.allow_implausible {
+        return Err(Error::Implausible(reasons.join("; "), Some(Box::new(info))));
+    }
     Ok((material, info))
 }
 
