@@ -102,17 +102,14 @@ pub fn run(a: EstimateArgs) -> Result<()> {
             ..Default::default()
         },
     };
-    let out = match crate::util::with_bar("estimate", |cb| estimate_files(&job, cb)) {
-        Ok(out) => out,
-        Err(e) => {
-            // A refused estimate still shows its report; nothing is written or stored.
-            if let resound::Error::Implausible(_, Some(info)) = e.root() {
+    // A refused estimate still shows its report; nothing is written or stored.
+    let out =
+        crate::util::with_bar("estimate", |cb| estimate_files(&job, cb)).inspect_err(|e| {
+            if let Some(info) = e.refused_report() {
                 warn_all(&info.warnings);
-                crate::util::show(a.json, info.as_ref())?;
+                let _ = crate::util::show(a.json, info);
             }
-            return Err(e.into());
-        }
-    };
+        })?;
     crate::util::notes(&out.notes);
     let (material, info) = (&out.material, &out.info);
     warn_all(&info.warnings);

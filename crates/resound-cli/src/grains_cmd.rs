@@ -79,6 +79,12 @@ pub struct ResynthArgs {
     /// Output WAV.
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Output sample rate, Hz (the dictionary keeps its recordings' rate).
+    #[arg(long, default_value_t = resound::core::limits::DEFAULT_SAMPLE_RATE_HZ)]
+    pub sample_rate: u32,
+    /// Output sample format.
+    #[arg(long, value_name = "pcm16|pcm24|float", default_value = "pcm24", value_parser = crate::util::named::<resound::io::WavFormat>)]
+    pub format: resound::io::WavFormat,
     /// Print the report (length, level, spectral convergence) as JSON.
     #[arg(long)]
     pub json: bool,
@@ -124,12 +130,12 @@ pub fn run(c: GrainsCmd) -> Result<()> {
                 variation: a.variation,
                 seed: a.seed,
             };
-            let r = resynthesize_for_file(&d, &a.recording, &p, a.reference.as_deref())
-                .with_context(|| a.dictionary.display().to_string())?;
+            let r =
+                resynthesize_for_file(&d, &a.recording, &p, a.reference.as_deref(), a.sample_rate)
+                    .with_context(|| a.dictionary.display().to_string())?;
             crate::util::warn_all(&r.info.warnings);
             crate::util::notes(&r.info.notes);
-            let fs = d.sample_rate_hz as u32;
-            resound::io::write_wav(&a.output, &r.samples, fs, resound::io::WavFormat::Float32)?;
+            resound::io::write_wav(&a.output, &r.samples, a.sample_rate, a.format)?;
             if a.json {
                 return crate::util::print_json(&r.info);
             }

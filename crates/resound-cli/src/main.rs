@@ -84,12 +84,8 @@ enum Command {
 fn quiet_on_broken_pipe() {
     let default = std::panic::take_hook();
     std::panic::set_hook(Box::new(move |info| {
-        let message = info
-            .payload()
-            .downcast_ref::<String>()
-            .map(String::as_str)
-            .or_else(|| info.payload().downcast_ref::<&str>().copied())
-            .unwrap_or("");
+        // The hook info shows the payload ("… failed printing to stdout: Broken pipe").
+        let message = info.to_string();
         if message.contains("Broken pipe") || message.contains("os error 32") {
             std::process::exit(0);
         }
@@ -181,10 +177,8 @@ fn advice(e: &anyhow::Error) -> Option<Advice> {
             "pass --resample-hz 48000".into()
         }
         resound::Error::Device(_) => "see --sample-rate (synth) or --block (scene)".into(),
-        resound::Error::Modal(resound::modal::ModelError::Eigen(
-            resound::modal::ModalError::NoConvergence { .. },
-        )) => "ask for fewer modes (the highest converge last): --modes N, or \
-            --mesh-modes N with synth"
+        r if r.is_no_convergence() => "ask for fewer modes (the highest converge last): \
+            --modes N, or --mesh-modes N with synth"
             .into(),
         r if r.is_too_many_modes() => "if the file is not in metres pass --scale (0.001 for \
             millimetres), else lower --max-freq-hz, ask for --modes N or raise --max-modes"

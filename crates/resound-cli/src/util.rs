@@ -6,13 +6,16 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+/// Parses comma-separated numbers (`what` names the expected form in the error).
+fn numbers(s: &str, what: &str) -> Result<Vec<f64>> {
+    let v = s.split(',').map(|p| p.trim().parse::<f64>());
+    v.collect::<std::result::Result<_, _>>()
+        .with_context(|| format!("'{s}' is not {what}"))
+}
+
 /// Parses `x,y,z`.
 pub fn parse_vec3(s: &str) -> Result<[f64; 3]> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<std::result::Result<_, _>>()
-        .with_context(|| format!("'{s}' is not x,y,z"))?;
+    let v = numbers(s, "x,y,z")?;
     if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
         bail!("'{s}' must be three finite numbers x,y,z");
     }
@@ -21,11 +24,7 @@ pub fn parse_vec3(s: &str) -> Result<[f64; 3]> {
 
 /// Parses a comma-separated list of positive numbers.
 pub fn parse_list(s: &str) -> Result<Vec<f64>> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<std::result::Result<_, _>>()
-        .with_context(|| format!("'{s}' is not a comma-separated list of numbers"))?;
+    let v = numbers(s, "a comma-separated list of numbers")?;
     if v.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
         bail!("'{s}': every value must be a positive number");
     }

@@ -9,6 +9,13 @@ use std::ops::RangeInclusive;
 /// rates (decoding takes [`DECODE_SAMPLE_RATE_HZ`]); they are resampled into this range.
 pub const SAMPLE_RATE_HZ: RangeInclusive<f64> = 8_000.0..=192_000.0;
 
+/// The rate every file Resound writes has unless asked otherwise (strikes, scrapes, scenes,
+/// grains, batches), Hz; with [`DEFAULT_WAV_BITS`]-bit PCM.
+pub const DEFAULT_SAMPLE_RATE_HZ: u32 = 48_000;
+
+/// Bits of the PCM files written unless asked otherwise.
+pub const DEFAULT_WAV_BITS: u32 = 24;
+
 /// Sample rates a decoder accepts in a file, Hz (anything wider is a corrupt header).
 pub const DECODE_SAMPLE_RATE_HZ: RangeInclusive<f64> = 1_000.0..=768_000.0;
 

@@ -52,6 +52,9 @@ fn default_duration() -> f64 {
 fn default_rate() -> u32 {
     48_000
 }
+fn default_format() -> resound_io::WavFormat {
+    resound_io::WavFormat::Pcm24
+}
 fn default_reference() -> String {
     "ceramic".into()
 }
@@ -117,6 +120,10 @@ pub struct Job {
     /// Sample rate, Hz.
     #[serde(default = "default_rate")]
     pub sample_rate: u32,
+    /// Sample format of the WAV files (`pcm16`, `pcm24`, `float`): 24-bit PCM by default, as
+    /// every command writes; `float` keeps the quietest strikes' physical level exactly.
+    #[serde(default = "default_format")]
+    pub format: resound_io::WavFormat,
     /// Add the material's residual.
     #[serde(default = "default_true")]
     pub residual: bool,
@@ -626,12 +633,9 @@ fn run_job(
                     })?;
                 }
                 match kind {
-                    OutputKind::Wav => resound_io::write_wav(
-                        &path,
-                        &strike.samples,
-                        job.sample_rate,
-                        resound_io::WavFormat::Float32,
-                    )?,
+                    OutputKind::Wav => {
+                        resound_io::write_wav(&path, &strike.samples, job.sample_rate, job.format)?
+                    }
                     OutputKind::Json => {
                         #[derive(Serialize)]
                         struct Labels {

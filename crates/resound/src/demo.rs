@@ -220,7 +220,7 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
         &dir.join("grains_stretched.wav"),
         &stretched,
         gfs as u32,
-        WavFormat::Float32,
+        WavFormat::Pcm24,
     )?;
     done(
         format!(

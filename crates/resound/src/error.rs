@@ -107,6 +107,25 @@ impl Error {
         }
     }
 
+    /// Whether the eigen-solve did not converge (front ends say how to ask for fewer modes).
+    pub fn is_no_convergence(&self) -> bool {
+        matches!(
+            self.root(),
+            Error::Modal(resound_modal::ModelError::Eigen(
+                resound_modal::ModalError::NoConvergence { .. }
+            ))
+        )
+    }
+
+    /// The report of an estimate refused as not credible ([`Error::Implausible`]), which a
+    /// front end still shows.
+    pub fn refused_report(&self) -> Option<&crate::material::EstimateInfo> {
+        match self.root() {
+            Error::Implausible(_, Some(info)) => Some(info),
+            _ => None,
+        }
+    }
+
     /// Whether the eigen-solve found more modes below the band edge than it may keep (a
     /// mesh in the wrong unit, or a band too wide): front ends name their settings for it.
     pub fn is_too_many_modes(&self) -> bool {

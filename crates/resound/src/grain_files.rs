@@ -390,7 +390,9 @@ impl std::fmt::Display for ResynthInfo {
 }
 
 /// Rebuilds recording `spec` of `d` as [`resynthesize_recording`] does, compares it with the
-/// `reference` recording when given (read at the dictionary's rate) and levels it for a file.
+/// `reference` recording when given (read at the dictionary's rate), levels it for a file and
+/// resamples it to `out_rate_hz` (the dictionary keeps its recordings' rate; files are written
+/// at one rate, [`resound_core::limits::DEFAULT_SAMPLE_RATE_HZ`] unless asked otherwise).
 ///
 /// # Errors
 /// As [`resynthesize_recording`]; an unreadable reference; non-finite samples.
@@ -399,7 +401,13 @@ pub fn resynthesize_for_file(
     spec: &str,
     params: &ResynthParams,
     reference: Option<&Path>,
+    out_rate_hz: u32,
 ) -> Result<Resynthesis> {
+    if !resound_core::limits::sample_rate_ok(f64::from(out_rate_hz)) {
+        return Err(invalid(resound_core::limits::sample_rate_message(
+            f64::from(out_rate_hz),
+        )));
+    }
     let mut samples = resynthesize_recording(d, spec, params)?;
     let spectral_convergence_db = match reference {
         Some(r) => {
@@ -416,10 +424,19 @@ pub fn resynthesize_for_file(
         }
         None => None,
     };
+    let from_hz = d.sample_rate_hz.round() as u32;
+    if from_hz != out_rate_hz {
+        let x: Vec<f64> = samples.iter().map(|&v| f64::from(v)).collect();
+        samples = resound_signal::resample::resample(&x, from_hz, out_rate_hz)
+            .map_err(invalid)?
+            .iter()
+            .map(|&v| v as f32)
+            .collect();
+    }
     let level = resound_synth::render::normalize(&mut samples, resound_synth::render::CEILING)?;
     let info = ResynthInfo {
-        sample_rate_hz: d.sample_rate_hz,
-        duration_s: samples.len() as f64 / d.sample_rate_hz,
+        sample_rate_hz: f64::from(out_rate_hz),
+        duration_s: samples.len() as f64 / f64::from(out_rate_hz),
         spectral_convergence_db,
         peak: level.peak_before,
         gain_db: level.gain_db,
