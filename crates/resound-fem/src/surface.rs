@@ -55,12 +55,26 @@ pub enum MeshError {
         largest: usize,
     },
     /// Edges shared by more than two triangles.
-    #[error("mesh is non-manifold: {count} edge(s) are shared by more than two triangles (e.g. between vertices {example:?})")]
+    #[error("mesh is non-manifold: {count} edge(s) are shared by more than two triangles (e.g. between input vertices {example:?}, at {at:?})")]
     NonManifold {
         /// Number of such edges.
         count: usize,
-        /// One example edge (vertex indices).
+        /// One example edge: its vertices' indices in the input (0-based, as in the file's
+        /// order; after welding, the first of the coincident ones).
         example: [u32; 2],
+        /// Where its two ends are.
+        at: [[f64; 3]; 2],
+    },
+    /// Filling holes made edges shared by more than two triangles: holes that touch at a
+    /// vertex form one boundary loop through it twice, which a fan cannot close.
+    #[error("filling the holes made {count} edge(s) shared by more than two triangles, at input vertex {vertex} ({at:?}): holes that touch at a vertex cannot be closed by a fan; close them in a mesh editor")]
+    HolesTouch {
+        /// Number of such edges.
+        count: usize,
+        /// The input vertex the holes share (0-based, in the file's order).
+        vertex: u32,
+        /// Where it is.
+        at: [f64; 3],
     },
     /// Orientation cannot be made consistent (e.g. a Möbius strip).
     #[error("mesh is not orientable: triangles cannot be given a consistent orientation")]
@@ -244,8 +258,13 @@ impl SurfaceMesh {
                 triangles: 0,
             });
         }
-        // 3. Manifoldness and holes.
-        mesh.check_manifold()?;
+        // 3. Manifoldness and holes. Errors name input vertices: the first input vertex of
+        // each welded one; vertices the hole filling adds have none.
+        let mut input_of = vec![u32::MAX; mesh.vertices.len()];
+        for (i, &w) in map.iter().enumerate().rev() {
+            input_of[w as usize] = i as u32;
+        }
+        mesh.check_manifold(&input_of)?;
         let loops = mesh.boundary_loops();
         if !loops.is_empty() {
             let largest = loops.iter().map(Vec::len).max().unwrap_or(0);
@@ -260,7 +279,7 @@ impl SurfaceMesh {
                 mesh.fill_hole(lp);
             }
             report.filled_holes = loops.len();
-            mesh.check_manifold()?;
+            mesh.check_manifold(&input_of)?;
             if !mesh.boundary_loops().is_empty() {
                 return Err(MeshError::NotClosed {
                     loops: loops.len(),
@@ -292,16 +311,37 @@ impl SurfaceMesh {
         m
     }
 
-    fn check_manifold(&self) -> Result<(), MeshError> {
+    /// Edges shared by more than two triangles are an error naming input vertices
+    /// (`input_of`: this mesh's vertex → the input's; vertices beyond it were added by the
+    /// repair).
+    fn check_manifold(&self, input_of: &[u32]) -> Result<(), MeshError> {
         let counts = self.edge_counts();
         let bad: Vec<_> = counts.iter().filter(|(_, &c)| c > 2).collect();
-        if let Some((e, _)) = bad.iter().min_by_key(|(e, _)| **e) {
-            return Err(MeshError::NonManifold {
+        let input = |v: u32| input_of.get(v as usize).copied();
+        // An edge of input vertices first; else one the repair made.
+        let pick = bad
+            .iter()
+            .map(|(e, _)| **e)
+            .min_by_key(|e| (e.iter().any(|&v| input(v).is_none()), *e));
+        let Some(e) = pick else { return Ok(()) };
+        let at = e.map(|v| self.vertices[v as usize]);
+        match e.map(input) {
+            [Some(a), Some(b)] => Err(MeshError::NonManifold {
                 count: bad.len(),
-                example: **e,
-            });
+                example: [a, b],
+                at,
+            }),
+            [Some(v), None] | [None, Some(v)] => Err(MeshError::HolesTouch {
+                count: bad.len(),
+                vertex: v,
+                at: self.vertices[e[usize::from(input(e[0]).is_none())] as usize],
+            }),
+            [None, None] => Err(MeshError::HolesTouch {
+                count: bad.len(),
+                vertex: u32::MAX,
+                at: at[0],
+            }),
         }
-        Ok(())
     }
 
     /// Splits the longest edge of every triangle while it is longer than `max_edge_m`, at its
@@ -427,7 +467,7 @@ impl SurfaceMesh {
                         None => break,
                     }
                 }
-                loops.push(lp);
+                loops.extend(split_at_repeats(&lp));
             }
         }
         loops
@@ -532,6 +572,23 @@ impl SurfaceMesh {
     }
 }
 
+/// A boundary walk through a vertex twice (holes that touch at a vertex) as its simple loops:
+/// a fan around one centroid would give the shared vertex's edge to four triangles.
+fn split_at_repeats(lp: &[u32]) -> Vec<Vec<u32>> {
+    let mut out = Vec::new();
+    let mut stack: Vec<u32> = Vec::with_capacity(lp.len());
+    for &v in lp {
+        if let Some(k) = stack.iter().position(|&u| u == v) {
+            // stack[k..] is a closed loop from v back to v.
+            out.push(stack.split_off(k));
+        }
+        stack.push(v);
+    }
+    out.push(stack);
+    out.retain(|l| l.len() >= 3);
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -606,6 +663,77 @@ mod tests {
         n.vertices.push([5.0, 5.0, 5.0]);
         let k = (n.vertices.len() - 1) as u32;
         n.triangles.push([t0[0], t0[1], k]);
-        assert!(matches!(n.repaired(0), Err(MeshError::NonManifold { .. })));
+        match n.repaired(0) {
+            Err(MeshError::NonManifold { example, at, .. }) => {
+                // Named in the input's numbering, with where the edge is.
+                let mut e = example;
+                e.sort_unstable();
+                let mut want = [t0[0], t0[1]];
+                want.sort_unstable();
+                assert_eq!(e, want);
+                assert_eq!(at[0], n.vertices[example[0] as usize]);
+            }
+            other => panic!("expected NonManifold, got {other:?}"),
+        }
+    }
+
+    /// Issue 37: two holes touching at one vertex were blamed on "vertices [47, 2296]", the
+    /// second made by the hole filler: a boundary walk through the shared vertex twice was
+    /// filled as one hole. Such walks are split into their simple loops, each filled alone.
+    #[test]
+    fn holes_touching_at_a_vertex_are_filled_apart() {
+        let whole = primitive::bar([1.0, 1.0, 1.0]).refined(0.3);
+        let mut tried = 0;
+        for v in 0..whole.vertices.len() as u32 {
+            // The triangles around v in fan order.
+            let around: Vec<[u32; 3]> = whole
+                .triangles
+                .iter()
+                .filter(|t| t.contains(&v))
+                .copied()
+                .collect();
+            // Inside a face (a planar fan): filling it back gives the very volume.
+            let on_face = (0..3).any(|c| {
+                around
+                    .iter()
+                    .flatten()
+                    .all(|&u| whole.vertices[u as usize][c] == whole.vertices[v as usize][c])
+            });
+            if around.len() < 6 || !on_face {
+                continue;
+            }
+            let other = |t: &[u32; 3], not: u32| *t.iter().find(|&&u| u != v && u != not).unwrap();
+            let mut fan = vec![around[0]];
+            let mut w = other(&around[0], u32::MAX);
+            while fan.len() < around.len() {
+                let Some(t) = around.iter().find(|t| t.contains(&w) && !fan.contains(t)) else {
+                    break;
+                };
+                w = other(t, w);
+                fan.push(*t);
+            }
+            if fan.len() != around.len() {
+                continue;
+            }
+            // Two quads of the fan (triangles 0–1 and 3–4) share only v: two 4-edge holes.
+            let gone = [fan[0], fan[1], fan[3], fan[4]];
+            let mut m = whole.clone();
+            m.triangles.retain(|t| !gone.contains(t));
+            assert_eq!(m.boundary_loops().iter().map(Vec::len).sum::<usize>(), 8);
+            let (fixed, r) = m.repaired(8).unwrap_or_else(|e| panic!("vertex {v}: {e}"));
+            assert_eq!(r.filled_holes, 2, "vertex {v}");
+            assert!(fixed.boundary_loops().is_empty());
+            assert!((fixed.signed_volume() - 1.0).abs() < 1e-9, "vertex {v}");
+            tried += 1;
+        }
+        assert!(tried > 10, "{tried} vertices tried");
+    }
+
+    #[test]
+    fn a_walk_through_a_vertex_twice_splits_into_simple_loops() {
+        let mut loops = split_at_repeats(&[1, 2, 3, 9, 4, 5, 6, 9, 7]);
+        loops.sort();
+        assert_eq!(loops, vec![vec![1, 2, 3, 9, 7], vec![9, 4, 5, 6]]);
+        assert_eq!(split_at_repeats(&[1, 2, 3, 4]), vec![vec![1, 2, 3, 4]]);
     }
 }
