@@ -166,6 +166,7 @@ fn draw_colour_bar(
         .disable_x_axis()
         .disable_mesh()
         .y_labels(6)
+        .y_label_formatter(&|v| format!("{v:.0}"))
         .y_label_style(("sans-serif", 13))
         .axis_desc_style(("sans-serif", 13))
         .y_desc(unit)
@@ -179,23 +180,40 @@ fn draw_colour_bar(
     Ok(())
 }
 
-/// Spectrogram of a signal (the first of `channels`), written atomically to `path`.
+/// Spectrogram of a signal, written atomically to `path`.
 pub fn spectrogram_png(path: &Path, x: &[f64], sample_rate_hz: f64, title: &str) -> Result<()> {
+    spectrograms_png(path, &[(title, x)], sample_rate_hz, &[])
+}
+
+/// Spectrograms of several channels (each `(title, samples)`), one above the other on one
+/// time axis, with `marks_s` (event times, s: a scene's impacts) marked on each, written
+/// atomically to `path`.
+pub fn spectrograms_png(
+    path: &Path,
+    channels: &[(&str, &[f64])],
+    sample_rate_hz: f64,
+    marks_s: &[f64],
+) -> Result<()> {
     register_font();
-    let (w, h) = (1000u32, 560u32);
+    let rows = channels.len().max(1) as u32;
+    let (w, h) = (1000u32, 60 + 440 * rows);
     let mut pixels = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(draw_err)?;
-        draw_spectrogram_of(
-            &root,
-            x,
-            sample_rate_hz,
-            &[],
-            title,
-            Some(x.len() as f64 / sample_rate_hz),
-        )
-        .map_err(draw_err)?;
+        let areas = root.split_evenly((channels.len().max(1), 1));
+        for ((title, x), area) in channels.iter().zip(&areas) {
+            draw_spectrogram_of(
+                area,
+                x,
+                sample_rate_hz,
+                &[],
+                title,
+                Some(x.len() as f64 / sample_rate_hz),
+                marks_s,
+            )
+            .map_err(draw_err)?;
+        }
         root.present().map_err(draw_err)?;
     }
     let img = image_png(&pixels, w, h)?;
@@ -209,7 +227,7 @@ fn draw_spectrogram(
     res: &Analysis,
     title: &str,
 ) -> std::result::Result<(), Box<dyn std::error::Error>> {
-    draw_spectrogram_of(area, seg, res.sample_rate_hz, &res.modes, title, None)
+    draw_spectrogram_of(area, seg, res.sample_rate_hz, &res.modes, title, None, &[])
 }
 
 fn draw_spectrogram_of(
@@ -219,6 +237,7 @@ fn draw_spectrogram_of(
     modes: &[DampedMode],
     title: &str,
     span_s: Option<f64>,
+    marks_s: &[f64],
 ) -> std::result::Result<(), Box<dyn std::error::Error>> {
     struct Res<'a> {
         modes: &'a [DampedMode],
@@ -242,31 +261,15 @@ fn draw_spectrogram_of(
             .mul_add(1.25, 200.0)
             .min(0.5 * fs)
     };
-    // Show until the longest-ringing mode has decayed by 60 dB (at least 0.1 s).
-    let t60_max = res
-        .modes
-        .iter()
-        .map(|m| 3.0 * std::f64::consts::LN_10 / m.damping_per_s)
-        .fold(0.1, f64::max);
-    // ... but not so long that the strike is a sliver: the T60 of the modes within 20 dB of
-    // the strongest decides, when it is shorter.
-    let strongest_a = res.modes.iter().map(|m| m.amplitude).fold(0.0, f64::max);
-    let mut loud_t60: Vec<f64> = res
-        .modes
-        .iter()
-        .filter(|m| m.amplitude > 0.1 * strongest_a)
-        .map(|m| 3.0 * std::f64::consts::LN_10 / m.damping_per_s)
-        .collect();
-    loud_t60.sort_by(f64::total_cmp);
-    let t_show = loud_t60
-        .get(loud_t60.len() / 2)
-        .map_or(t60_max, |&t| (1.5 * t).clamp(0.1, t60_max));
-    let t_end = span_s.unwrap_or((seg.len() as f64 / fs).min(1.1 * t_show));
-    let (area, bar) = area.split_horizontally(area.dim_in_pixel().0.saturating_sub(80));
+    // The whole segment analysed (a shorter view hid most of what was fitted).
+    let t_end = span_s.unwrap_or(seg.len() as f64 / fs).max(1e-3);
+    let (area, bar) = area.split_horizontally(area.dim_in_pixel().0.saturating_sub(100));
     let title = short_title(title);
     let mut chart = ChartBuilder::on(&area)
         .caption(
-            if res.modes.is_empty() {
+            if !marks_s.is_empty() {
+                format!("{title}: spectrogram, impacts marked")
+            } else if res.modes.is_empty() {
                 format!("{title}: spectrogram")
             } else {
                 format!("{title}: spectrogram, modes marked")
@@ -279,7 +282,11 @@ fn draw_spectrogram_of(
         .build_cartesian_2d(0.0..t_end, 0.0..f_top)?;
     chart
         .configure_mesh()
-        .x_desc("time after onset (s)")
+        .x_desc(if span_s.is_some() {
+            "time (s)"
+        } else {
+            "time after onset (s)"
+        })
         .y_desc("frequency (Hz)")
         .y_label_formatter(&|v| format!("{v:.0}"))
         .disable_mesh()
@@ -289,9 +296,17 @@ fn draw_spectrogram_of(
         .iter()
         .map(|c| 10.0 * (c.norm_sqr() + 1e-30).log10())
         .collect();
+    // The colour range from the data: from the peak down to the 5th percentile of the bins
+    // shown (the noise floor), 30–90 dB, so a decay spans the colours instead of one hue.
     let top = db.iter().copied().fold(f64::MIN, f64::max);
-    let floor = top - 90.0;
-    draw_colour_bar(&bar, -90.0, 0.0, "dB re peak", &|v| (v + 90.0) / 90.0)?;
+    let k_top = ((f_top / spec.bin_width_hz()).ceil() as usize).clamp(1, spec.bins);
+    let m_top = (((t_end * fs) / spec.hop as f64).ceil() as usize).clamp(1, spec.frames);
+    let shown: Vec<f64> = (0..m_top)
+        .flat_map(|m| db[m * spec.bins..m * spec.bins + k_top].iter().copied())
+        .collect();
+    let range = colour_range_db(shown, top);
+    let floor = top - range;
+    draw_colour_bar(&bar, -range, 0.0, "dB re peak", &|v| (v + range) / range)?;
     let plot = chart.plotting_area();
     let (px_w, px_h) = plot.dim_in_pixel();
     for py in 0..px_h {
@@ -311,10 +326,26 @@ fn draw_spectrogram_of(
         // A mode is marked from its onset to where it has decayed by 60 dB.
         let t60 = (3.0 * std::f64::consts::LN_10 / m.damping_per_s).min(t_end);
         let level = 20.0 * (m.amplitude / strongest).log10();
-        let c = if level > -20.0 { CYAN } else { WHITE };
-        PathElement::new(vec![(0.0, m.freq_hz), (t60, m.freq_hz)], c.stroke_width(1))
+        let (c, w) = if level > -20.0 { (CYAN, 3) } else { (WHITE, 2) };
+        PathElement::new(vec![(0.0, m.freq_hz), (t60, m.freq_hz)], c.stroke_width(w))
     }))?;
+    // Event marks: a green tick down from the top at each time.
+    chart.draw_series(
+        marks_s
+            .iter()
+            .filter(|&&t| (0.0..=t_end).contains(&t))
+            .map(|&t| PathElement::new(vec![(t, f_top), (t, 0.9 * f_top)], GREEN.stroke_width(2))),
+    )?;
     Ok(())
+}
+
+/// The dB range a spectrogram's colours span below its peak `top`: down to the 5th
+/// percentile of the `shown` bins' levels (the noise floor, or the end of a decay), rounded up
+/// and held within 30–90 dB.
+fn colour_range_db(mut shown: Vec<f64>, top: f64) -> f64 {
+    shown.sort_by(f64::total_cmp);
+    let p5 = shown.get(shown.len() / 20).copied().unwrap_or(top - 90.0);
+    (top - p5).clamp(30.0, 90.0).ceil()
 }
 
 /// Log–log axes of frequency and damping spanning `modes` (from a decade boundary).
@@ -528,7 +559,7 @@ fn draw_loudness(
     let g = &image.grid;
     let frames = g.frames.max(1);
     let t_end = (frames * g.hop) as f64 / g.sample_rate_hz;
-    let (area, bar) = area.split_horizontally(area.dim_in_pixel().0.saturating_sub(80));
+    let (area, bar) = area.split_horizontally(area.dim_in_pixel().0.saturating_sub(100));
     draw_colour_bar(&bar, 0.0, vmax, "sone", &|v| (v / vmax).sqrt())?;
     let mut chart = ChartBuilder::on(&area)
         .caption(title, ("sans-serif", 17))
@@ -555,4 +586,48 @@ fn draw_loudness(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 37: the analysis spectrogram was near-uniform orange (a fixed 90 dB range over a
+    /// strike whose bins span 40 dB). The range follows the data: a 60 dB decay spans the
+    /// colours, a noisy 40 dB recording gets 40 dB, never under 30 or over 90.
+    #[test]
+    fn the_colour_range_follows_the_levels_shown() {
+        let decay: Vec<f64> = (0..1000).map(|i| -60.0 * f64::from(i) / 1000.0).collect();
+        assert_eq!(colour_range_db(decay, 0.0), 57.0);
+        let noisy: Vec<f64> = (0..1000)
+            .map(|i| -40.0 * f64::from(i % 100) / 100.0)
+            .collect();
+        assert_eq!(colour_range_db(noisy, 0.0), 38.0);
+        let flat = vec![-1.0; 100];
+        assert_eq!(colour_range_db(flat, 0.0), 30.0);
+        let silence: Vec<f64> = (0..100)
+            .map(|i| if i < 50 { 0.0 } else { -300.0 })
+            .collect();
+        assert_eq!(colour_range_db(silence, 0.0), 90.0);
+    }
+
+    /// The scene picture: every channel drawn, one above the other (it showed the left one).
+    #[test]
+    fn several_channels_make_one_row_each() {
+        let dir = tempfile::tempdir().unwrap();
+        let x: Vec<f64> = (0..48_000)
+            .map(|i| (f64::from(i) * 0.1).sin() * (-f64::from(i) / 4800.0).exp())
+            .collect();
+        let one = dir.path().join("one.png");
+        let two = dir.path().join("two.png");
+        spectrograms_png(&one, &[("a", &x)], 48_000.0, &[0.1]).unwrap();
+        spectrograms_png(&two, &[("a", &x), ("b", &x)], 48_000.0, &[0.1]).unwrap();
+        // A PNG's height is bytes 20–23 of its IHDR chunk.
+        let height = |p: &Path| {
+            let b = std::fs::read(p).unwrap();
+            u32::from_be_bytes([b[20], b[21], b[22], b[23]])
+        };
+        assert_eq!(height(&one), 500);
+        assert_eq!(height(&two), 940);
+    }
 }

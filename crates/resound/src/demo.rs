@@ -265,12 +265,29 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
 
     // 7. The result's picture and the summary.
     let t = Instant::now();
-    let left: Vec<f64> = scene.channels[0].iter().map(|&v| f64::from(v)).collect();
-    resound_plot::spectrogram_png(
+    // Every channel, with the impacts marked (the picture showed the left channel alone).
+    let chans: Vec<Vec<f64>> = scene
+        .channels
+        .iter()
+        .map(|c| c.iter().map(|&v| f64::from(v)).collect())
+        .collect();
+    let names = ["scene.wav (left)", "scene.wav (right)"];
+    let rows: Vec<(&str, &[f64])> = chans
+        .iter()
+        .enumerate()
+        .map(|(i, c)| (names.get(i).copied().unwrap_or("scene.wav"), c.as_slice()))
+        .collect();
+    let impacts: Vec<f64> = scene
+        .events
+        .iter()
+        .filter(|e| e.kind == resound_physics::ContactKind::Impact)
+        .map(|e| e.time_s)
+        .collect();
+    resound_plot::spectrograms_png(
         &dir.join("scene.png"),
-        &left,
+        &rows,
         f64::from(scene.sample_rate_hz),
-        "scene.wav (left)",
+        &impacts,
     )?;
     done("drew scene.png".into(), t, &mut report);
     report.scene = scene.summary;
