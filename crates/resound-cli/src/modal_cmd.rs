@@ -106,7 +106,7 @@ fn params(a: &ModalArgs) -> ModalParams {
 
 /// Runs `resound modal`.
 pub fn run(a: ModalArgs) -> Result<()> {
-    crate::util::check_paths([&a.mesh], &a.output)?;
+    crate::util::check_paths([&a.mesh], a.output.iter().chain(&a.export_matrices))?;
     let job = SolveJob {
         mesh: a.mesh.clone(),
         scale: a.scale,

@@ -3018,3 +3018,89 @@ fn a_left_out_take_is_counted_apart_and_listed_as_left_out() {
         "has 2 channel(s)",
     );
 }
+
+/// Issue 38: `estimate -o`, `materials export`, `mesh primitive -o` and `--export-matrices`
+/// created missing directories while `synth`, `analyze` and `modal -o` refused. One rule: an
+/// output (file or directory) may be new, its parent directory must exist; nothing is made.
+#[test]
+fn a_missing_parent_directory_is_refused_by_every_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "bar",
+            "--size",
+            "0.1,0.02,0.01",
+            "-o",
+            "bar.obj",
+        ],
+        d,
+    ));
+    std::fs::write(
+        d.join("jobs.jsonl"),
+        r#"{"name":"a","mesh":"bar.obj","material":"metal","hits":[[0.05,0,0]],"modes":4}"#,
+    )
+    .unwrap();
+    let cases: [&[&str]; 5] = [
+        &[
+            "mesh",
+            "primitive",
+            "bar",
+            "--size",
+            "0.1,0.1,0.1",
+            "-o",
+            "no/b.obj",
+        ],
+        &[
+            "materials",
+            "export",
+            "metal",
+            "no/m.json",
+            "--library",
+            "lib.sqlite",
+        ],
+        &[
+            "modal",
+            "bar.obj",
+            "-m",
+            "steel",
+            "--modes",
+            "4",
+            "--export-matrices",
+            "no/k",
+        ],
+        &[
+            "modal",
+            "bar.obj",
+            "-m",
+            "steel",
+            "--modes",
+            "4",
+            "-o",
+            "no/b.rmodal",
+        ],
+        &["batch", "jobs.jsonl", "--out", "no/sub"],
+    ];
+    for args in cases {
+        let out = resound(args, d);
+        fails_with(&out, "the directory no does not exist");
+        assert!(!d.join("no").exists(), "{args:?} made it");
+    }
+    // The output directory itself may be new.
+    ok(&resound(
+        &[
+            "modal",
+            "bar.obj",
+            "-m",
+            "steel",
+            "--modes",
+            "4",
+            "--export-matrices",
+            "k",
+        ],
+        d,
+    ));
+    assert!(d.join("k/K.mtx").is_file() && d.join("k/M.mtx").is_file());
+}

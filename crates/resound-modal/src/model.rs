@@ -69,6 +69,9 @@ pub enum ModelError {
     /// Parameters make no sense.
     #[error("invalid parameters: {0}")]
     Params(String),
+    /// No elastic mode in the band asked for.
+    #[error("{0}")]
+    NoModes(String),
 }
 
 /// What a modal analysis did, for reports and benchmarks.
@@ -413,6 +416,19 @@ fn solve_fem(
     }
     if let Some(n) = params.n_modes {
         keep.truncate(n);
+    }
+    if keep.is_empty() {
+        let f = cutoff.unwrap_or(20_000.0);
+        return Err(ModelError::NoModes(format!(
+            "the object has no elastic mode below {f:.0} Hz (a stiff or small object: a 1 cm \
+             steel cube rings near 170 kHz); raise the cutoff, ask for a mode count, or check \
+             the mesh's size and unit{}",
+            if fem.n_dofs() <= 3 * 8 {
+                " (the model has only 8 nodes: raise the resolution)"
+            } else {
+                ""
+            }
+        )));
     }
     if let Some(&first) = keep.first() {
         let f1 = units::lambda_to_freq_hz(lambdas[first]);

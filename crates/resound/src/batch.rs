@@ -411,12 +411,7 @@ pub fn run_batch(
     }
     let base = jobs_path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let out = &params.out_dir;
-    std::fs::create_dir_all(out).map_err(|e| {
-        Error::from(resound_io::IoError::Io {
-            path: out.clone(),
-            error: e,
-        })
-    })?;
+    crate::files::make_output_dir(out)?;
     let manifest_path = out.join(format!("manifest-{shard}-of-{shards}.jsonl"));
     let mut done: HashSet<String> = read_manifest(&manifest_path)?
         .into_iter()

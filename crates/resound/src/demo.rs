@@ -65,10 +65,7 @@ pub struct DemoReport {
 pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
     let total = Instant::now();
     let dir = &p.out_dir;
-    std::fs::create_dir_all(dir).map_err(|e| resound_io::IoError::Io {
-        path: dir.clone(),
-        error: e,
-    })?;
+    crate::files::make_output_dir(dir)?;
     let mut report = DemoReport::default();
     let done = |name: String, t: Instant, report: &mut DemoReport| {
         let s = t.elapsed().as_secs_f64();

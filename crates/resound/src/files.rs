@@ -176,19 +176,37 @@ pub fn import_pyimpact(dir: &Path) -> Result<Vec<(String, ModeStatistics)>> {
     Ok(out)
 }
 
+/// Makes an output directory, as every command treats one (`batch --out`, `--export-matrices`,
+/// `stats import`, `demo --out-dir`): the directory itself may be new, its parent must exist
+/// like every output file's ([`check_outputs`]), so a mistyped path is refused instead of
+/// created. Concurrent makers (batch shards) all succeed.
+///
+/// # Errors
+/// A missing parent; a path that is a file; an unwritable parent.
+pub fn make_output_dir(dir: &Path) -> Result<()> {
+    if dir.is_dir() {
+        return Ok(());
+    }
+    check_outputs(&[], &[dir])?;
+    match std::fs::create_dir(dir) {
+        Err(e) if !(e.kind() == std::io::ErrorKind::AlreadyExists && dir.is_dir()) => {
+            Err(Error::from(resound_io::IoError::Io {
+                path: dir.to_path_buf(),
+                error: e,
+            }))
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Imports every PyImpact table in `dir` ([`import_pyimpact`]) as `<name>.stats.json` files
-/// in `out_dir` (created when missing); returns the files written.
+/// in `out_dir` ([`make_output_dir`]); returns the files written.
 ///
 /// # Errors
 /// As [`import_pyimpact`]; an unwritable directory.
 pub fn import_pyimpact_into(dir: &Path, out_dir: &Path) -> Result<Vec<std::path::PathBuf>> {
     let tables = import_pyimpact(dir)?;
-    std::fs::create_dir_all(out_dir).map_err(|e| {
-        Error::from(resound_io::IoError::Io {
-            path: out_dir.to_path_buf(),
-            error: e,
-        })
-    })?;
+    make_output_dir(out_dir)?;
     let mut written = Vec::new();
     for (name, s) in &tables {
         let p = out_dir.join(format!("{name}.stats.json"));

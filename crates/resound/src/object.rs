@@ -547,6 +547,9 @@ pub fn solve_object(job: &SolveJob, progress: ProgressFn<'_>) -> Result<SolveOut
     if let Some(h) = job.hit_m {
         check_hit_before_solve(&job.mesh, job.scale, h)?;
     }
+    if let Some(dir) = &job.export_matrices {
+        crate::files::check_outputs(&[&job.mesh], &[dir])?;
+    }
     progress(Progress::begin(Stage::Assembling));
     let mut solved = solve_mesh_file(&job.mesh, job.scale, &job.material, &job.modal, progress)?;
     let mut warnings = Vec::new();
@@ -577,12 +580,9 @@ pub fn solve_object(job: &SolveJob, progress: ProgressFn<'_>) -> Result<SolveOut
         None => None,
     };
     if let (Some(dir), Some(fem)) = (&job.export_matrices, &solved.fem) {
-        std::fs::create_dir_all(dir).map_err(|e| {
-            Error::from(resound_io::IoError::Io {
-                path: dir.clone(),
-                error: e,
-            })
-        })?;
+        // The directory itself may be new; its parent must exist, as every output's does
+        // (`files::check_outputs`): a mistyped parent is refused, not created.
+        crate::files::make_output_dir(dir)?;
         let note = format!(
             "resound {} {}: {} DOFs; DOF 3*node+c",
             env!("CARGO_PKG_VERSION"),

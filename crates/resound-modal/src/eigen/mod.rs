@@ -188,6 +188,45 @@ pub struct EigenInfo {
 /// kept (with a warning), without a cutoff.
 pub const LOOSE_FACTOR: f64 = 10.0;
 
+/// Models this small are solved densely: every pair at once and exactly (a Krylov space of a
+/// few blocks already spans them, and block Lanczos stalls there).
+pub const DENSE_MAX_DOFS: usize = 300;
+
+/// [`solve_generalized`] for a model of at most [`DENSE_MAX_DOFS`] DOFs: all pairs by a dense
+/// solve, the wanted ones kept (the lowest `n_eigen`, or those below the cutoff).
+fn solve_dense(
+    k: SparseColMatRef<'_, usize, f64>,
+    m: SparseColMatRef<'_, usize, f64>,
+    params: &EigenParams,
+    mut info: EigenInfo,
+) -> Result<(Vec<f64>, Mat<f64>, EigenInfo), ModalError> {
+    let t0 = Instant::now();
+    let n = k.nrows();
+    let (mut lambdas, phi) =
+        crate::dense::dense_eigenpairs(k, m).ok_or_else(|| ModalError::NotPositiveDefinite {
+            shift: 0.0,
+            detail: "the mass matrix of a small model is not positive definite".into(),
+        })?;
+    let wanted = match params.until_lambda {
+        Some(lc) => {
+            let below = lambdas.iter().filter(|&&l| l < lc).count();
+            if below > params.max_eigen {
+                info.capped = true;
+            }
+            below.min(params.max_eigen).max(1)
+        }
+        None => params.n_eigen.min(n),
+    };
+    lambdas.truncate(wanted);
+    let phi = phi.subcols(0, wanted).to_owned();
+    let mphi = sym_matmul(m, phi.as_ref());
+    info.max_rel_residual = residuals_with_m(k, &lambdas, phi.as_ref(), mphi.as_ref());
+    info.converged = wanted;
+    info.rounds = 1;
+    info.eigen_s = t0.elapsed().as_secs_f64();
+    Ok((lambdas, phi, info))
+}
+
 /// Scales every column of `phi` to φᵀMφ = 1 and returns Mφ (scaled alike); `None` when a column
 /// has no positive finite M-norm.
 fn m_normalize(m: SparseColMatRef<'_, usize, f64>, phi: &mut Mat<f64>) -> Option<Mat<f64>> {
@@ -285,7 +324,8 @@ fn residuals_with_m(
 }
 
 /// The relative residual ‖Kφ − λMφ‖/‖λMφ‖ of each pair, given Mφ; 0 for rigid pairs (λ
-/// below 10⁻⁶ of the largest), NaN for a pair that is not finite.
+/// below 10⁻⁶ of the largest, or below 1 Hz: a set of rigid pairs alone, as a stiff object
+/// below a cutoff gives, has no elastic λ to compare with), NaN for a pair that is not finite.
 fn residuals_each(
     k: SparseColMatRef<'_, usize, f64>,
     lambdas: &[f64],
@@ -293,8 +333,9 @@ fn residuals_each(
     mphi: MatRef<'_, f64>,
 ) -> Vec<f64> {
     let lam_max = lambdas.iter().cloned().fold(0.0, f64::max);
+    let rigid_below = (1e-6 * lam_max).max(units::freq_hz_to_lambda(1.0));
     let sel: Vec<usize> = (0..lambdas.len())
-        .filter(|&c| lambdas[c] > 1e-6 * lam_max)
+        .filter(|&c| lambdas[c] > rigid_below)
         .collect();
     let mut each = vec![0.0; lambdas.len()];
     if sel.is_empty() {
@@ -343,6 +384,9 @@ pub fn solve_generalized(
         shift: sigma,
         ..Default::default()
     };
+    if n <= DENSE_MAX_DOFS {
+        return solve_dense(k, m, params, info);
+    }
     progress(Progress::begin(Stage::Factorizing));
     let t0 = Instant::now();
     let a = shifted(k, m, sigma);

@@ -507,3 +507,47 @@ fn issue_37_a_cylinder_with_200_modes_passes_its_sturm_check() {
     assert!(e.sturm_count.unwrap() >= found, "{e:?}");
     assert_eq!(solved.model.n_modes(), 200);
 }
+
+/// Issue 38: a one-element cube (8 nodes, 24 DOFs) asked for 10 modes said "converged 0/44
+/// modes". Models this small are solved densely: every pair exact, the rigid six first. With
+/// no elastic mode under the cutoff the error says so (it listed nothing and exited 0).
+#[test]
+fn issue_38_a_24_dof_cube_solves_and_an_empty_band_is_named() {
+    let steel = Material::preset("steel").unwrap();
+    let cube = primitive::bar([0.01, 0.01, 0.01]);
+    let solved = ModalBuilder::surface(&cube, &steel)
+        .params(ModalParams {
+            n_modes: Some(10),
+            resolution: 1,
+            ..Default::default()
+        })
+        .solve()
+        .unwrap();
+    assert_eq!(solved.info.dofs, 24);
+    assert_eq!(solved.model.n_modes(), 10);
+    assert_eq!(solved.info.rigid_modes, 6);
+    let e = &solved.info.eigen;
+    assert!(e.max_rel_residual < 1e-9, "{e:?}");
+    let f = solved.model.freqs_hz();
+    assert!(f.windows(2).all(|w| w[0] <= w[1]) && f[0] > 100e3, "{f:?}");
+    // All 18 elastic pairs of the element when more are asked for.
+    let all = ModalBuilder::surface(&cube, &steel)
+        .params(ModalParams {
+            n_modes: Some(30),
+            resolution: 1,
+            ..Default::default()
+        })
+        .solve()
+        .unwrap();
+    assert_eq!(all.model.n_modes(), 18);
+    // The default band (20 kHz) holds none of them.
+    let err = ModalBuilder::surface(&cube, &steel)
+        .params(ModalParams {
+            resolution: 1,
+            ..Default::default()
+        })
+        .solve()
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("no elastic mode below 20000 Hz"), "{err}");
+}
