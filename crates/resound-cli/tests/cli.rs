@@ -2789,6 +2789,25 @@ fn a_zero_mode_cap_and_a_directory_library_are_named_as_such() {
     let out = resound(&["modal", "bar.obj", "-m", "steel", "--max-modes=0"], d);
     fails_with(&out, "the maximum mode count must be at least 1");
     assert!(!String::from_utf8_lossy(&out.stderr).contains("allowed"));
+    // Issue 38: zero equivalent sources asked "is it closed?" of a closed mesh after the
+    // solve; the setting is named before any solve now.
+    let out = resound(
+        &[
+            "modal",
+            "bar.obj",
+            "-m",
+            "steel",
+            "--transfer",
+            "--transfer-sources=0",
+        ],
+        d,
+    );
+    fails_with(&out, "0 equivalent sources: between 1 and 5000");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !err.contains("closed") && !err.contains("assembling"),
+        "{err}"
+    );
     std::fs::create_dir(d.join("adir")).unwrap();
     let out = resound(&["materials", "list", "--library", "adir"], d);
     fails_with(&out, "is a directory; a material library is a file");

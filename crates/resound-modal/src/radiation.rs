@@ -26,6 +26,9 @@ use resound_core::radiation::{
 };
 use resound_core::ModalModel;
 
+/// Most equivalent sources a transfer fit may ask for (the cost grows as their square).
+pub const MAX_SOURCES: usize = 5000;
+
 /// Settings of [`fit_transfer`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct TransferParams {
@@ -48,6 +51,34 @@ pub struct TransferParams {
     /// Most equivalent sources (monopoles inside the surface; at most a third of the surface
     /// vertices). More follow a complicated shape more closely; the cost grows as their square.
     pub max_sources: usize,
+}
+
+impl TransferParams {
+    /// Checks the settings (what [`fit_transfer`] checks first; front ends call it before a
+    /// modal solve so a bad setting is refused at once).
+    ///
+    /// # Errors
+    /// [`TransferError::Parameter`] naming the setting.
+    pub fn validate(&self) -> Result<(), TransferError> {
+        let p = self;
+        if !(1..=30).contains(&p.max_order)
+            || p.per_octave == 0
+            || p.per_octave > 48
+            || !(p.span_octaves >= 0.0 && p.span_octaves <= 6.0)
+            || !(p.grid_start_hz > 0.0 && p.max_freq_hz > p.grid_start_hz)
+            || !(p.sound_speed_m_s > 0.0 && p.air_density_kg_m3 > 0.0)
+            || !(p.regularization >= 0.0 && p.regularization < 1.0)
+        {
+            return Err(TransferError::Parameter(format!("unusable settings {p:?}")));
+        }
+        if !(1..=MAX_SOURCES).contains(&p.max_sources) {
+            return Err(TransferError::Parameter(format!(
+                "{} equivalent sources: between 1 and {MAX_SOURCES} fit a surface's radiation",
+                p.max_sources
+            )));
+        }
+        Ok(())
+    }
 }
 
 impl Default for TransferParams {
@@ -184,17 +215,8 @@ pub fn fit_transfer(
     {
         return bad("a vertex or a normal velocity is not finite".into());
     }
+    params.validate()?;
     let p = params;
-    if !(1..=30).contains(&p.max_order)
-        || p.per_octave == 0
-        || p.per_octave > 48
-        || !(p.span_octaves >= 0.0 && p.span_octaves <= 6.0)
-        || !(p.grid_start_hz > 0.0 && p.max_freq_hz > p.grid_start_hz)
-        || !(p.sound_speed_m_s > 0.0 && p.air_density_kg_m3 > 0.0)
-        || !(p.regularization >= 0.0 && p.regularization < 1.0)
-    {
-        return bad(format!("unusable settings {p:?}"));
-    }
     if freqs_hz.iter().any(|f| !(f.is_finite() && *f >= 0.0)) {
         return bad("a mode frequency is not finite".into());
     }

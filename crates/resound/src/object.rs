@@ -550,6 +550,10 @@ pub fn solve_object(job: &SolveJob, progress: ProgressFn<'_>) -> Result<SolveOut
     if let Some(dir) = &job.export_matrices {
         crate::files::check_outputs(&[&job.mesh], &[dir])?;
     }
+    if let Some(t) = &job.transfer {
+        t.validate()
+            .map_err(|e| crate::error::invalid(e.to_string()))?;
+    }
     progress(Progress::begin(Stage::Assembling));
     let mut solved = solve_mesh_file(&job.mesh, job.scale, &job.material, &job.modal, progress)?;
     let mut warnings = Vec::new();
