@@ -3123,3 +3123,70 @@ fn a_missing_parent_directory_is_refused_by_every_output() {
     ));
     assert!(d.join("k/K.mtx").is_file() && d.join("k/M.mtx").is_file());
 }
+
+/// Issue 38: 4000 coincident spheres were still building after a minute at 1.2 GB; a body
+/// inside another and a listener inside a body were accepted without a word. Bodies that start
+/// deep inside one another and a listener inside a body are refused before any sound model
+/// is built, and a scene whose gain tables would pass the memory budget is refused with the
+/// estimate.
+#[test]
+fn overlapping_bodies_a_buried_listener_and_an_oversized_scene_are_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = |listener: &str, body: &str, n: usize, spread: bool| {
+        let mut s = format!(
+            "duration = 0.3\nstereo = false\n[listener]\nposition = {listener}\n\n\
+             [[body]]\nname = \"floor\"\nfixed = true\nshape = {{ box = [8.0, 0.04, 8.0] }}\n\
+             material = \"wood\"\ndensity = 700\nposition = [0.0, -0.02, 0.0]\nsound = false\n"
+        );
+        for i in 0..n {
+            let (x, z) = if spread {
+                ((i % 20) as f64 * 0.4 - 4.0, (i / 20) as f64 * 0.05 - 4.0)
+            } else {
+                (0.0, 0.0)
+            };
+            s += &format!(
+                "\n[[body]]\nname = \"b{i}\"\n{body}\ndensity = 7850\nposition = [{x}, 0.3, {z}]\n"
+            );
+        }
+        s
+    };
+    let sphere = "shape = { sphere = 0.02 }\nmaterial = \"metal\"";
+    std::fs::write(
+        d.join("coincident.toml"),
+        scene("[0.0, 1.0, 2.0]", sphere, 4000, false),
+    )
+    .unwrap();
+    fails_with(
+        &resound(&["scene", "coincident.toml", "-o", "c.wav"], d),
+        "body \"b1\": it starts 0.040 m deep inside body \"b0\"",
+    );
+    assert!(!d.join("c.wav").exists());
+    std::fs::write(
+        d.join("buried.toml"),
+        scene("[0.0, -0.01, 0.0]", sphere, 2, true),
+    )
+    .unwrap();
+    fails_with(
+        &resound(&["scene", "buried.toml", "-o", "b.wav"], d),
+        "the listener at [0.0, -0.01, 0.0] m is inside body \"floor\"",
+    );
+    // The same bodies apart, heard from the air: accepted.
+    std::fs::write(
+        d.join("apart.toml"),
+        scene("[0.0, 1.0, 2.0]", sphere, 2, true),
+    )
+    .unwrap();
+    ok(&resound(&["scene", "apart.toml", "-o", "a.wav"], d));
+    // 4000 bars of 100 modes at ~1600 vertices: about 2.6 GiB of gains, refused at the first.
+    let bar = "shape = { box = [0.3, 0.02, 0.01] }\nmaterial = \"metal\"\nmodes = 100";
+    std::fs::write(
+        d.join("many.toml"),
+        scene("[0.0, 1.0, 2.0]", bar, 4000, true),
+    )
+    .unwrap();
+    fails_with(
+        &resound(&["scene", "many.toml", "-o", "m.wav"], d),
+        "GiB of gain tables (body \"b0\"",
+    );
+}

@@ -44,7 +44,10 @@ pub mod live;
 mod scene;
 
 pub use contact::ContactKind;
-pub use scene::{simulate, Event, Excitation, SceneOutput, ScenePhysics, SceneSources, SceneStats};
+pub use scene::{
+    body_containing, check_start_overlaps, simulate, Event, Excitation, SceneOutput, ScenePhysics,
+    SceneSources, SceneStats,
+};
 
 use resound_synth::excitation::Elastic;
 

@@ -5,6 +5,7 @@ mod tracker;
 mod vertex_grid;
 
 use bodies::*;
+pub use bodies::{body_containing, check_start_overlaps};
 use tracker::*;
 use vertex_grid::*;
 

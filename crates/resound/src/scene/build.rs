@@ -66,6 +66,9 @@ fn geometry(b: &BodyFile, base_dir: &Path) -> Result<(SurfaceMesh, Shape)> {
     })
 }
 
+/// Most memory the sounding bodies' gain tables of one scene may take, bytes.
+pub const MAX_SOUND_BYTES: usize = 2 << 30;
+
 /// The sound model of a body of `material` with modal `model` (solved at the body's density).
 ///
 /// With `transfer` (the model's acoustic transfer), the modes radiate by it in scenes.
@@ -197,7 +200,45 @@ pub fn build_scene(
             scene.body.len()
         )));
     }
+    // Shapes first: bodies that start inside one another are refused before any sound model
+    // is built (thousands at one point made every pair a contact and held gigabytes).
+    let mut geometries: Vec<Option<(SurfaceMesh, Shape)>> = Vec::with_capacity(scene.body.len());
+    for b in &scene.body {
+        geometries.push(Some(
+            geometry(b, opts.base_dir).map_err(|e| e.context(format!("body {:?}", b.name)))?,
+        ));
+    }
+    let deg = std::f64::consts::PI / 180.0;
+    let bare: Vec<BodySpec> = scene
+        .body
+        .iter()
+        .zip(geometries.iter().flatten())
+        .map(|(b, (_, shape))| BodySpec {
+            name: b.name.clone(),
+            shape: shape.clone(),
+            fixed: b.fixed,
+            density: b.density,
+            position: b.position,
+            rotation: b.rotation.map(|r| r * deg),
+            linvel: b.velocity,
+            angvel: b.angular_velocity,
+            restitution: b.restitution,
+            friction: b.friction,
+            sound: None,
+            surface: None,
+            grains: None,
+        })
+        .collect();
+    resound_physics::check_start_overlaps(&bare)?;
+    if let Some(name) = resound_physics::body_containing(&bare, scene.listener.position)? {
+        return Err(invalid(format!(
+            "the listener at {:?} m is inside body {name:?}: place it in the air",
+            scene.listener.position
+        )));
+    }
+    drop(bare);
     let mut models = ModelCache::new(opts.cache_dir.clone(), usize::MAX);
+    let mut sound_bytes = 0usize;
     let mut transfers = Transfers::new();
     let mut bodies = Vec::with_capacity(scene.body.len());
     let mut loaded: std::collections::HashMap<
@@ -216,7 +257,9 @@ pub fn build_scene(
             }
             resound_io::scene::MaterialSpec::Inline(m) => (**m).clone(),
         };
-        let (mesh, shape) = geometry(b, opts.base_dir).map_err(fail)?;
+        let (mesh, shape) = geometries[i]
+            .take()
+            .ok_or_else(|| invalid("a body's geometry was used twice"))?;
         let grains = match b.grains_file() {
             Some((file, gain)) => {
                 let path = opts.base_dir.join(file);
@@ -263,6 +306,23 @@ pub fn build_scene(
                 density: b.density,
             };
             let (model, file) = modal_model(&mesh, &elastic, b, &mut models).map_err(fail)?;
+            // Each sounding body holds its gains at every surface vertex: refused up front
+            // when the scene would need more than the budget (the rest taken like this one).
+            let table = model.n_vertices() * (model.n_modes() * 4 + 24);
+            sound_bytes += table;
+            let projected = sound_bytes + table * (scene.body.len() - i - 1);
+            if projected > MAX_SOUND_BYTES {
+                return Err(invalid(format!(
+                    "the sounding bodies would hold about {:.1} GiB of gain tables (body {:?}: \
+                     {} vertices × {} modes), more than {} GiB: fewer sounding bodies (`sound \
+                     = false`), fewer modes (`modes = N`), or coarser meshes",
+                    projected as f64 / f64::from(1u32 << 30),
+                    b.name,
+                    model.n_vertices(),
+                    model.n_modes(),
+                    MAX_SOUND_BYTES >> 30
+                )));
+            }
             let transfer = if scene.radiation {
                 Some(
                     body_transfer(&model, file.as_deref(), &mut transfers, opts.progress)
@@ -316,7 +376,6 @@ pub fn build_scene(
         if let (Some(s), Some(eta)) = (sound.as_mut(), b.contact_damping) {
             s.contact_loss = eta;
         }
-        let deg = std::f64::consts::PI / 180.0;
         bodies.push(BodySpec {
             name: b.name.clone(),
             shape,
