@@ -458,3 +458,33 @@ fn a_jobs_file_without_jobs_is_an_error_not_an_empty_dataset() {
         assert!(!d.join("made").exists());
     }
 }
+
+/// Issue 38: 100 000 identical job lines ran at ~300 lines/s after the first (5.5 min of
+/// reading and hashing for one strike). A line that repeats a job (spacing and key order
+/// aside) is skipped before any file is read, counted, and renders nothing twice; 20 000
+/// copies make exactly the files of one.
+#[test]
+fn repeated_job_lines_cost_nothing_and_make_the_files_of_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    meshes(d);
+    let a = r#"{"name":"a","mesh":"box.obj","material":"metal","hits":[[0.04,0.013,0.011]],"modes":8,"duration_s":0.2}"#;
+    let a2 = r#"{ "modes": 8, "name": "a", "material": "metal", "mesh": "box.obj", "hits": [[0.04, 0.013, 0.011]], "duration_s": 0.2 }"#;
+    let mut text = String::new();
+    for k in 0..20_000 {
+        text += if k % 2 == 0 { a } else { a2 };
+        text.push('\n');
+    }
+    std::fs::write(d.join("dup.jsonl"), &text).unwrap();
+    std::fs::write(d.join("one.jsonl"), format!("{a}\n")).unwrap();
+    let dup = ok(&resound(
+        &["batch", "dup.jsonl", "--out", "dup", "--json"],
+        d,
+    ));
+    let v: Value = serde_json::from_str(&dup).unwrap();
+    assert_eq!(v["jobs"], 20_000, "{v}");
+    assert_eq!(v["duplicate_lines"], 19_999, "{v}");
+    assert_eq!(v["rendered"], 1, "{v}");
+    ok(&resound(&["batch", "one.jsonl", "--out", "one"], d));
+    assert_eq!(outputs(&d.join("dup")), outputs(&d.join("one")));
+}
