@@ -528,22 +528,24 @@ fn draw_estimate_features(
         .collect();
     chart.draw_series(LineSeries::new(curve, BLACK.stroke_width(2)))?;
     let level = |m: &DampedMode| resound_signal::mode_level(m, resound_signal::LEVEL_WINDOW_S);
-    let strongest = p.reference.iter().map(level).fold(1e-300, f64::max);
-    let radius = |m: &DampedMode| {
-        let db = 20.0 * (level(m) / strongest).log10();
+    // Each set sized relative to its own strongest mode (their scales need not agree).
+    let strongest = |set: &[DampedMode]| set.iter().map(level).fold(1e-300, f64::max);
+    let (ref_top, est_top) = (strongest(p.reference), strongest(p.estimated));
+    let radius = |m: &DampedMode, top: f64| {
+        let db = 20.0 * (level(m) / top).log10();
         (3.0 + (db + 60.0).max(0.0) / 6.0) as i32
     };
     chart.draw_series(p.reference.iter().map(|m| {
         Circle::new(
             (m.freq_hz, m.damping_per_s),
-            radius(m),
+            radius(m, ref_top),
             RED.mix(0.6).filled(),
         )
     }))?;
     chart.draw_series(p.estimated.iter().map(|m| {
         Circle::new(
             (m.freq_hz, m.damping_per_s),
-            radius(m),
+            radius(m, est_top),
             BLUE.stroke_width(2),
         )
     }))?;

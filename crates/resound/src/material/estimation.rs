@@ -717,12 +717,12 @@ pub fn estimate_plot(
         params.route,
     )?;
     let level = |m: &DampedMode| resound_signal::mode_level(m, resound_signal::LEVEL_WINDOW_S);
-    let floor = analysis.modes.iter().map(level).fold(0.0, f64::max) * 1e-3;
-    let shown: Vec<DampedMode> = objective
-        .modes(&info.params)
-        .into_iter()
-        .filter(|m| level(m) >= floor)
-        .collect();
+    // Within 60 dB of the estimate's own strongest mode: its levels are drawn relative to
+    // their own peak (the plot showed none when the estimate's scale sat far below the
+    // recording's).
+    let modes = objective.modes(&info.params);
+    let floor = modes.iter().map(level).fold(0.0, f64::max) * 1e-3;
+    let shown: Vec<DampedMode> = modes.into_iter().filter(|m| level(m) >= floor).collect();
     resound_plot::estimate_png(
         path,
         &resound_plot::EstimatePlot {
