@@ -208,6 +208,8 @@ pub fn check_start_overlaps(bodies: &[BodySpec]) -> Result<(), SceneError> {
     use rapier3d::parry::query;
     let mut shapes = Vec::with_capacity(bodies.len());
     for (i, b) in bodies.iter().enumerate() {
+        // Each body's own checks first (a 2e6 m sphere is named for its size).
+        check_body(b)?;
         let c = collider(b, i)?.build();
         let body = RigidBodyBuilder::fixed()
             .translation(v3(b.position))
