@@ -171,7 +171,9 @@ def test_materials_are_values_not_strings(rmodal):
     assert steel != resound.material("preset:wood")
     # Listed origins are serde's names (what the CLI's JSON says), not Debug text.
     origins = {m.origin for m in resound.materials()}
-    assert origins <= {"builtin", "library", "estimated", "legacy_table1"} and "builtin" in origins
+    assert origins <= {"builtin", "library", "estimated", "legacy_table1", "preset"} and "builtin" in origins
+    # One vocabulary: the presets a plain name reaches are listed too (issue 37).
+    assert {"steel", "aluminium", "ceramic"} <= {m.name for m in resound.materials()}
     # A made-up material is checked as a material file is.
     with pytest.raises(resound.ResoundError, match="material"):
         resound.Material("bad", -1.0, 1e-7, 1e6, 1.0)
