@@ -657,7 +657,7 @@ async function loadLibrary(select) {
     a.textContent = "JSON";
     a.download = `${m.name}.json`;
     td.appendChild(a);
-    if (origin !== "builtin") {
+    if (origin !== "builtin" && origin !== "preset") {
       const ren = document.createElement("button");
       ren.className = "small";
       ren.textContent = "rename";
