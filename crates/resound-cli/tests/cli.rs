@@ -2887,6 +2887,12 @@ fn one_material_vocabulary_every_name_listed_and_usable_everywhere() {
             list.lines().any(|l| l.starts_with(&format!("{name} "))),
             "{name} missing from\n{list}"
         );
+        let shown: Value = serde_json::from_str(&ok(&resound(
+            &["materials", "show", name, "--library", "lib.sqlite"],
+            d,
+        )))
+        .unwrap();
+        assert_eq!(shown["name"], name);
         let wav = format!("{name}.wav");
         ok(&resound(
             &[

@@ -85,19 +85,30 @@ pub fn library_material(lib: Option<&Library>, name: &str) -> Result<SoundMateri
             return not_legacy(m, l.path());
         }
     }
-    SoundMaterial::builtin_named(name).ok_or_else(|| {
-        let mut known: Vec<String> = match lib {
-            Some(l) => l.names().unwrap_or_default(),
-            None => Vec::new(),
-        };
-        known.extend(SoundMaterial::builtin().into_iter().map(|m| m.name));
-        known.sort();
-        known.dedup();
-        invalid(format!(
-            "no material {name:?} in the library (known: {})",
-            known.join(", ")
-        ))
-    })
+    // Every listed name is reachable ([`list_materials`]): the built-ins, then the presets
+    // under their plain names.
+    let preset = || {
+        preset_sound_material(name).map(|m| SoundMaterial {
+            name: name.to_string(),
+            ..m
+        })
+    };
+    SoundMaterial::builtin_named(name)
+        .or_else(preset)
+        .ok_or_else(|| {
+            let mut known: Vec<String> = match lib {
+                Some(l) => l.names().unwrap_or_default(),
+                None => Vec::new(),
+            };
+            known.extend(SoundMaterial::builtin().into_iter().map(|m| m.name));
+            known.extend(Material::PRESET_NAMES.iter().map(|n| n.to_string()));
+            known.sort();
+            known.dedup();
+            invalid(format!(
+                "no material {name:?} in the library (known: {})",
+                known.join(", ")
+            ))
+        })
 }
 
 /// Where a listed material comes from.
