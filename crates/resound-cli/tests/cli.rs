@@ -41,8 +41,8 @@ fn fails_with(out: &Output, needle: &str) {
 }
 
 /// Issue 19: `modal --transfer` stores each mode's acoustic transfer, `model` shows it and
-/// `synth --mic` weights the modes by what they radiate there (a microphone inside the object
-/// warns); a strike without `--mic` is unchanged by it.
+/// `synth --mic` weights the modes by what they radiate there (a microphone inside the object is
+/// refused); a strike without `--mic` is unchanged by it.
 #[test]
 fn a_transfer_is_fitted_stored_and_heard_by_a_microphone() {
     let dir = tempfile::tempdir().unwrap();
@@ -140,13 +140,12 @@ fn a_transfer_is_fitted_stored_and_heard_by_a_microphone() {
             .remove(0)
     };
     assert_eq!(read("heard.wav").len(), read("plain.wav").len());
-    let inside = strike(Some("0,0,0"), "inside.wav");
-    ok(&inside);
-    assert!(
-        String::from_utf8_lossy(&inside.stderr).contains("inside"),
-        "{}",
-        String::from_utf8_lossy(&inside.stderr)
+    // Inside the solid: refused (issue 38; it used to render with a warning).
+    fails_with(
+        &strike(Some("0,0,0"), "inside.wav"),
+        "the microphone at [0.0, 0.0, 0.0] m is inside the object",
     );
+    assert!(!d.join("inside.wav").exists());
     fails_with(&strike(Some("1,nan,0"), "bad.wav"), "finite");
 }
 
@@ -2623,6 +2622,28 @@ fn a_hit_off_the_surface_is_refused_before_any_solve() {
     ok(&out);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("wrote cup.rmodal (4 modes)"), "{err}");
+    // Issue 38: a microphone inside the solid was accepted without a word; it is refused
+    // before any solve, for a mesh and for a saved model alike.
+    for (mesh, cmd) in [
+        ("cup.obj", "synth"),
+        ("cup.rmodal", "synth"),
+        ("cup.obj", "estimate"),
+    ] {
+        let mut args: Vec<&str> = if cmd == "synth" {
+            vec!["synth", "--material", "metal", "-o", "m.wav"]
+        } else {
+            vec!["estimate", "strike.wav", "-o", "m.json"]
+        };
+        args.extend(["--mesh", mesh, "--hit", "0.04,0,0.03", "--mic", "0,0,0.01"]);
+        let out = resound(&args, d);
+        fails_with(
+            &out,
+            "the microphone at [0.0, 0.0, 0.01] m is inside the object",
+        );
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("assembling"), "{args:?}: {err}");
+    }
+    assert!(!d.join("m.wav").exists() && !d.join("m.json").exists());
 }
 
 /// Issue 38: three inputs that panicked or aborted (exit 101/134) or rendered silence with exit

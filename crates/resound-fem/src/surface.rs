@@ -142,6 +142,38 @@ impl SurfaceMesh {
         norm(sub(hi, lo))
     }
 
+    /// Whether `p` lies inside this closed surface: the parity of a ray's crossings (a
+    /// direction off every axis, so it meets edges and vertices only by accident of measure
+    /// zero). For meshes that are not closed the answer means little.
+    pub fn contains_point(&self, p: [f64; 3]) -> bool {
+        let dir = [0.577_215_664_9, 0.618_033_988_7, 0.529_177_210_9];
+        let mut crossings = 0usize;
+        for t in &self.triangles {
+            let [a, b, c] = t.map(|i| self.vertices[i as usize]);
+            // Möller–Trumbore.
+            let (e1, e2) = (sub(b, a), sub(c, a));
+            let h = cross(dir, e2);
+            let det = dot(e1, h);
+            if det.abs() < 1e-300 {
+                continue;
+            }
+            let s = sub(p, a);
+            let u = dot(s, h) / det;
+            if !(0.0..=1.0).contains(&u) {
+                continue;
+            }
+            let q = cross(s, e1);
+            let v = dot(dir, q) / det;
+            if v < 0.0 || u + v > 1.0 {
+                continue;
+            }
+            if dot(e2, q) / det > 0.0 {
+                crossings += 1;
+            }
+        }
+        crossings % 2 == 1
+    }
+
     /// Signed enclosed volume (m³) by the divergence theorem; positive for outward orientation.
     pub fn signed_volume(&self) -> f64 {
         self.triangles

@@ -122,6 +122,37 @@ pub fn check_hit_before_solve(path: &Path, scale: f64, hit_m: [f64; 3]) -> Resul
     Ok(())
 }
 
+/// Checks a microphone against the closed surface in `path` (scaled by `scale`) before any
+/// solve: one inside the solid hears nothing physical (it was accepted without a word). A
+/// saved model is checked by its surface after loading instead (it holds one).
+///
+/// # Errors
+/// A microphone inside the object; an unreadable mesh.
+pub fn check_mic_before_solve(path: &Path, scale: f64, mic_m: [f64; 3]) -> Result<()> {
+    let inside = if is_model_file(path) {
+        let m = model_file::load(path)?;
+        resound_fem::SurfaceMesh {
+            vertices: m.vertices.clone(),
+            triangles: m.triangles.clone(),
+        }
+        .contains_point(mic_m)
+    } else if !(1e-6..=1e6).contains(&scale) {
+        false
+    } else {
+        match load_mesh(path, scale)? {
+            LoadedMesh::Surface(s) => s.contains_point(mic_m),
+            _ => false,
+        }
+    };
+    if inside {
+        return Err(crate::error::invalid(format!(
+            "the microphone at {mic_m:?} m is inside the object: place it in the air"
+        ))
+        .at(path));
+    }
+    Ok(())
+}
+
 /// The modal model of the object in `path`: loaded from a `.rmodal`, or solved from a mesh.
 ///
 /// # Errors

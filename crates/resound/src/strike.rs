@@ -508,7 +508,14 @@ pub fn render_strike_from(
             };
             Ok((render_strike(struck, p)?, Vec::new()))
         }
-        StrikeSource::Object { object, .. } => {
+        StrikeSource::Object {
+            object,
+            object_params,
+            ..
+        } => {
+            if let Some(mic) = p.mic_m {
+                crate::object::check_mic_before_solve(object, object_params.scale, mic)?;
+            }
             let (material, model, hit, note, warnings) =
                 load_struck_object_warned(source, progress)?;
             let same_object =

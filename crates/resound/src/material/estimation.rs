@@ -826,6 +826,9 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
         ));
     }
     crate::object::check_hit_before_solve(&job.object, job.object_params.scale, job.hit_m)?;
+    if let Some(mic) = job.params.mic_m {
+        crate::object::check_mic_before_solve(&job.object, job.object_params.scale, mic)?;
+    }
     let (model, solve_warnings) =
         crate::object::load_object_warned(&job.object, &job.object_params, progress)?;
     for w in &solve_warnings {
