@@ -21,43 +21,19 @@ impl Tally {
     /// Runs `args` in `dir`; `may_succeed` allows exit 0.
     fn run(&mut self, dir: &Path, args: &[&str], may_succeed: bool) {
         self.cases += 1;
-        let mut child = Command::new(env!("CARGO_BIN_EXE_resound"))
-            .args(args)
-            .current_dir(dir)
-            .env("RESOUND_LIBRARY", dir.join("sweep-library.sqlite"))
-            .env("XDG_CACHE_HOME", dir.join("cache"))
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let t0 = Instant::now();
-        let status = loop {
-            if let Some(s) = child.try_wait().unwrap() {
-                break Some(s);
-            }
-            if t0.elapsed() > Duration::from_secs(60) {
-                let _ = child.kill();
-                let _ = child.wait();
-                break None;
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        };
-        let mut err = String::new();
-        if let Some(mut e) = child.stderr.take() {
-            use std::io::Read;
-            let _ = e.read_to_string(&mut err);
-        }
+        let (code, err) = run_timed(dir, args);
         let case = format!("resound {}", args.join(" "));
-        match status {
-            None => self.failures.push(format!("{case}: hang (> 60 s)")),
+        match code {
+            None => self
+                .failures
+                .push(format!("{case}: hang (> 60 s) or killed by a signal")),
             Some(_) if err.contains("panicked") => {
                 self.failures.push(format!("{case}: panic: {err}"))
             }
-            Some(s) if s.code() == Some(2) && err.contains("error:") => self.errors += 1,
-            Some(s) if s.success() && may_succeed => self.ok += 1,
-            Some(s) => self.failures.push(format!(
-                "{case}: exit {:?} (expected an error){}: {err}",
-                s.code(),
+            Some(2) if err.contains("error:") => self.errors += 1,
+            Some(0) if may_succeed => self.ok += 1,
+            Some(c) => self.failures.push(format!(
+                "{case}: exit {c} (expected an error){}: {err}",
                 if may_succeed { " or success" } else { "" }
             )),
         }

@@ -761,6 +761,40 @@ mod tests {
         assert!(tried > 10, "{tried} vertices tried");
     }
 
+    /// The microphone check's point-in-surface test (issue 38): ray parity on a unit box, its
+    /// refined copy and a cylinder, against the analytic solid.
+    #[test]
+    fn points_inside_a_closed_surface_are_told_from_points_outside() {
+        let meshes = [
+            (primitive::bar([1.0, 1.0, 1.0]), 0.5, false),
+            (primitive::bar([1.0, 1.0, 1.0]).refined(0.2), 0.5, false),
+            (primitive::cylinder(0.5, 1.0, 48), 0.5, true),
+        ];
+        for (m, h, round) in &meshes {
+            for k in 0..400 {
+                // A deterministic spread over [-0.8, 0.8]³, off the faces by at least 1 %.
+                let c = |j: u32| ((f64::from(k * 7 + j * 13) * 0.618_034).fract() - 0.5) * 1.6;
+                let p = [c(1), c(2), c(3)];
+                let inside = if *round {
+                    p[0].hypot(p[1]) < *h && p[2].abs() < *h
+                } else {
+                    p.iter().all(|v| v.abs() < *h)
+                };
+                let margin = if *round {
+                    (p[0].hypot(p[1]) - h).abs().min((p[2].abs() - h).abs())
+                } else {
+                    p.iter()
+                        .map(|v| (v.abs() - h).abs())
+                        .fold(f64::MAX, f64::min)
+                };
+                if margin < 0.02 {
+                    continue;
+                }
+                assert_eq!(m.contains_point(p), inside, "{p:?}");
+            }
+        }
+    }
+
     #[test]
     fn a_walk_through_a_vertex_twice_splits_into_simple_loops() {
         let mut loops = split_at_repeats(&[1, 2, 3, 9, 4, 5, 6, 9, 7]);

@@ -4,24 +4,14 @@ use faer::prelude::*;
 use faer::sparse::SparseColMatRef;
 use faer::Side;
 
-/// All eigenvalues (ascending, rad²/s²) of K φ = λ M φ by dense Cholesky of M and a dense
-/// symmetric eigendecomposition of L⁻¹ K L⁻ᵀ. O(n³): only for a few thousand DOFs.
-///
-/// # Panics
-/// If M is not positive definite or the dense eigen-solve fails.
-pub fn dense_eigenvalues(
+/// The Cholesky factor L of M and C = L⁻¹ K L⁻ᵀ (symmetrized), the standard form both dense
+/// solves diagonalize; `None` when M is not positive definite.
+fn reduced(
     k: SparseColMatRef<'_, usize, f64>,
     m: SparseColMatRef<'_, usize, f64>,
-) -> Vec<f64> {
-    let kd = k.to_dense();
-    let md = m.to_dense();
-    let l = md
-        .llt(Side::Lower)
-        .expect("M is positive definite")
-        .L()
-        .to_owned();
-    // C = L⁻¹ K L⁻ᵀ
-    let mut x = kd.clone();
+) -> Option<(Mat<f64>, Mat<f64>)> {
+    let l = m.to_dense().llt(Side::Lower).ok()?.L().to_owned();
+    let mut x = k.to_dense();
     faer::linalg::triangular_solve::solve_lower_triangular_in_place(
         l.as_ref(),
         x.as_mut(),
@@ -34,6 +24,19 @@ pub fn dense_eigenvalues(
         Par::Seq,
     );
     let sym = Mat::<f64>::from_fn(c.nrows(), c.ncols(), |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
+    Some((l, sym))
+}
+
+/// All eigenvalues (ascending, rad²/s²) of K φ = λ M φ by dense Cholesky of M and a dense
+/// symmetric eigendecomposition of L⁻¹ K L⁻ᵀ. O(n³): only for a few thousand DOFs.
+///
+/// # Panics
+/// If M is not positive definite or the dense eigen-solve fails.
+pub fn dense_eigenvalues(
+    k: SparseColMatRef<'_, usize, f64>,
+    m: SparseColMatRef<'_, usize, f64>,
+) -> Vec<f64> {
+    let (_, sym) = reduced(k, m).expect("M is positive definite");
     let mut ev: Vec<f64> = sym
         .self_adjoint_eigenvalues(Side::Lower)
         .expect("dense symmetric eigen-solve");
@@ -49,22 +52,7 @@ pub fn dense_eigenpairs(
     k: SparseColMatRef<'_, usize, f64>,
     m: SparseColMatRef<'_, usize, f64>,
 ) -> Option<(Vec<f64>, Mat<f64>)> {
-    let kd = k.to_dense();
-    let md = m.to_dense();
-    let l = md.llt(Side::Lower).ok()?.L().to_owned();
-    let mut x = kd.clone();
-    faer::linalg::triangular_solve::solve_lower_triangular_in_place(
-        l.as_ref(),
-        x.as_mut(),
-        Par::Seq,
-    );
-    let mut c = x.transpose().to_owned();
-    faer::linalg::triangular_solve::solve_lower_triangular_in_place(
-        l.as_ref(),
-        c.as_mut(),
-        Par::Seq,
-    );
-    let sym = Mat::<f64>::from_fn(c.nrows(), c.ncols(), |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
+    let (l, sym) = reduced(k, m)?;
     let eig = sym.self_adjoint_eigen(Side::Lower).ok()?;
     let n = sym.nrows();
     let s = eig.S();

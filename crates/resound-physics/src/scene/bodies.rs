@@ -195,6 +195,18 @@ pub(super) fn contact_radius(s: &Shape) -> f64 {
     .max(1e-4)
 }
 
+/// Body `b`'s collider and its world pose at the start (for checks before a world exists).
+fn start_collider(b: &BodySpec, index: usize) -> Result<(Collider, Pose3), SceneError> {
+    let c = collider(b, index)?.build();
+    let body = RigidBodyBuilder::fixed()
+        .translation(v3(b.position))
+        .rotation(v3(b.rotation))
+        .build();
+    // A collider not yet attached keeps its pose relative to the body.
+    let pose = *body.position() * *c.position();
+    Ok((c, pose))
+}
+
 /// Bodies that start deep inside one another: the first pair whose shapes overlap by more
 /// than a quarter of the smaller one's size at their starting poses, as an error naming both.
 /// rapier would push such bodies apart violently (or leave them locked, silent), and
@@ -210,13 +222,7 @@ pub fn check_start_overlaps(bodies: &[BodySpec]) -> Result<(), SceneError> {
     for (i, b) in bodies.iter().enumerate() {
         // Each body's own checks first (a 2e6 m sphere is named for its size).
         check_body(b)?;
-        let c = collider(b, i)?.build();
-        let body = RigidBodyBuilder::fixed()
-            .translation(v3(b.position))
-            .rotation(v3(b.rotation))
-            .build();
-        // A collider not yet attached keeps its pose relative to the body.
-        let pose = *body.position() * *c.position();
+        let (c, pose) = start_collider(b, i)?;
         let aabb = c.shape().compute_aabb(&pose);
         let size = (aabb.maxs - aabb.mins).min_element();
         shapes.push((c, pose, aabb, size));
@@ -261,12 +267,7 @@ pub fn check_start_overlaps(bodies: &[BodySpec]) -> Result<(), SceneError> {
 /// A body whose shape cannot be built.
 pub fn body_containing(bodies: &[BodySpec], point: [f64; 3]) -> Result<Option<&str>, SceneError> {
     for (i, b) in bodies.iter().enumerate() {
-        let c = collider(b, i)?.build();
-        let body = RigidBodyBuilder::fixed()
-            .translation(v3(b.position))
-            .rotation(v3(b.rotation))
-            .build();
-        let pose = *body.position() * *c.position();
+        let (c, pose) = start_collider(b, i)?;
         let p = v3(point);
         if c.shape().contains_point(&pose, p) {
             return Ok(Some(&b.name));

@@ -202,20 +202,17 @@ pub fn build_scene(
     }
     // Shapes first: bodies that start inside one another are refused before any sound model
     // is built (thousands at one point made every pair a contact and held gigabytes).
-    let mut geometries: Vec<Option<(SurfaceMesh, Shape)>> = Vec::with_capacity(scene.body.len());
-    for b in &scene.body {
-        geometries.push(Some(
-            geometry(b, opts.base_dir).map_err(|e| e.context(format!("body {:?}", b.name)))?,
-        ));
-    }
+    // Each body's spec without its sound yet, and the surface its sound is built on.
     let deg = std::f64::consts::PI / 180.0;
-    let bare: Vec<BodySpec> = scene
-        .body
-        .iter()
-        .zip(geometries.iter().flatten())
-        .map(|(b, (_, shape))| BodySpec {
+    let mut meshes: Vec<SurfaceMesh> = Vec::with_capacity(scene.body.len());
+    let mut bare: Vec<BodySpec> = Vec::with_capacity(scene.body.len());
+    for b in &scene.body {
+        let (mesh, shape) =
+            geometry(b, opts.base_dir).map_err(|e| e.context(format!("body {:?}", b.name)))?;
+        meshes.push(mesh);
+        bare.push(BodySpec {
             name: b.name.clone(),
-            shape: shape.clone(),
+            shape,
             fixed: b.fixed,
             density: b.density,
             position: b.position,
@@ -227,8 +224,8 @@ pub fn build_scene(
             sound: None,
             surface: None,
             grains: None,
-        })
-        .collect();
+        });
+    }
     resound_physics::check_start_overlaps(&bare)?;
     if let Some(name) = resound_physics::body_containing(&bare, scene.listener.position)? {
         return Err(invalid(format!(
@@ -236,7 +233,7 @@ pub fn build_scene(
             scene.listener.position
         )));
     }
-    drop(bare);
+    let mut specs = bare.into_iter().zip(meshes);
     let mut models = ModelCache::new(opts.cache_dir.clone(), usize::MAX);
     let mut sound_bytes = 0usize;
     let mut transfers = Transfers::new();
@@ -257,9 +254,9 @@ pub fn build_scene(
             }
             resound_io::scene::MaterialSpec::Inline(m) => (**m).clone(),
         };
-        let (mesh, shape) = geometries[i]
-            .take()
-            .ok_or_else(|| invalid("a body's geometry was used twice"))?;
+        let (spec, mesh) = specs
+            .next()
+            .ok_or_else(|| invalid("a body without its geometry"))?;
         let grains = match b.grains_file() {
             Some((file, gain)) => {
                 let path = opts.base_dir.join(file);
@@ -377,19 +374,10 @@ pub fn build_scene(
             s.contact_loss = eta;
         }
         bodies.push(BodySpec {
-            name: b.name.clone(),
-            shape,
-            fixed: b.fixed,
-            density: b.density,
-            position: b.position,
-            rotation: b.rotation.map(|r| r * deg),
-            linvel: b.velocity,
-            angvel: b.angular_velocity,
-            restitution: b.restitution,
-            friction: b.friction,
             sound,
             surface: surface_of(b, opts.base_dir, scene.seed + i as u64).map_err(fail)?,
             grains,
+            ..spec
         });
     }
     let params = SceneParams {
