@@ -44,7 +44,8 @@ pub struct SynthArgs {
     /// Scale applied to mesh coordinates (0.001 for millimetres).
     #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub scale: f64,
-    /// Elastic modes to compute when a mesh is given.
+    /// Elastic modes to compute at most when a mesh is given (only those below the Nyquist
+    /// frequency in the material are solved).
     #[arg(long, default_value_t = 200)]
     pub mesh_modes: usize,
     /// Reference material for the modal solve (its density also sets the object's E = γρ for

@@ -42,6 +42,9 @@ pub struct EstimateParams {
     pub floor_db: f64,
     /// How the estimated loudness image is computed.
     pub route: ImageRoute,
+    /// A known estimate to refine (a first estimate on fewer modes of the same object): it is
+    /// refined first, beside only the [`WARM_OTHER_STARTS`] most promising of the usual starts.
+    pub warm_start: Option<RayleighParams>,
 }
 
 /// How [`Objective::hybrid`] computes the estimated loudness image. Both routes give the same
@@ -65,6 +68,7 @@ impl Default for EstimateParams {
             max_iterations: 400,
             floor_db: 50.0,
             route: ImageRoute::Auto,
+            warm_start: None,
         }
     }
 }
@@ -366,6 +370,10 @@ pub fn starting_points_within(
 /// Starts kept for Nelder–Mead: the rest are judged hopeless by their metric at the start.
 pub const MAX_STARTS: usize = 12;
 
+/// Usual starts kept beside a warm start ([`EstimateParams::warm_start`]): a guard against a
+/// first estimate that paired the wrong modes, at a third of the usual cost.
+pub const WARM_OTHER_STARTS: usize = 3;
+
 /// Estimates {α, β, γ, σ} from an onset-aligned recording `signal`, its analysed modes and the
 /// object's modal side.
 pub fn estimate(
@@ -401,23 +409,26 @@ pub fn estimate(
         params.dominant,
         signal.len() as f64 / sample_rate_hz,
     );
-    if starts.is_empty() {
+    let warm = params.warm_start.filter(RayleighParams::is_valid);
+    if starts.is_empty() && warm.is_none() {
         return Err(EstimateError::NoStart);
     }
     // Prune hopeless starts: one metric evaluation each, keep the best.
     let mut starts = starts;
-    if starts.len() > MAX_STARTS {
+    let kept = if warm.is_some() {
+        WARM_OTHER_STARTS
+    } else {
+        MAX_STARTS
+    };
+    if starts.len() > kept {
         let mut scored: Vec<(f64, RayleighParams)> = starts
             .par_iter()
             .map(|p| (objective.hybrid(p), *p))
             .collect();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-        starts = scored
-            .into_iter()
-            .take(MAX_STARTS)
-            .map(|(_, p)| p)
-            .collect();
+        starts = scored.into_iter().take(kept).map(|(_, p)| p).collect();
     }
+    starts.splice(0..0, warm);
     // Successive halving: every start gets a quarter of the iterations; of those still moving,
     // only the most promising quarter (at least two) goes on with the rest. Starts that end up best
     // are already ahead by then, and heavily damped cases spend most of their cost on the

@@ -270,8 +270,10 @@ fn image_of_modes_in(
             .frames
             .min((grid.audible_s(m) * frames_per_s) as usize + 2);
         let columns = ModeColumns::new(layout, m.freq_hz, m.damping_per_s);
-        for k in lo..=hi {
-            let [mut p, mut q, ps, qs] = columns.column(k);
+        if lo > hi {
+            continue;
+        }
+        columns.for_each_column(lo, hi, |k, [mut p, mut q, ps, qs]| {
             let column = &mut cells[k * grid.frames..k * grid.frames + last];
             for c in column {
                 *c += a * p + a.conj() * q;
@@ -279,7 +281,7 @@ fn image_of_modes_in(
                 q *= qs;
             }
             used[k] = used[k].max(last);
-        }
+        });
     }
     let w2: f64 = hann(grid.window_len).iter().map(|v| v * v).sum();
     let scale = 2.0 / (layout.fft_len as f64 * w2);

@@ -13,7 +13,8 @@ use std::time::Instant;
 /// Settings of a modal analysis.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ModalParams {
-    /// Number of elastic modes wanted; `None` means all up to `max_freq_hz`.
+    /// Number of elastic modes wanted; `None` means all up to `max_freq_hz`. With both set:
+    /// every mode below `max_freq_hz`, at most this many (none above the cutoff is solved).
     pub n_modes: Option<usize>,
     /// Frequency cutoff (Hz) for the given material; 20 kHz when neither is set.
     pub max_freq_hz: Option<f64>,
@@ -379,12 +380,11 @@ fn solve_fem(
         n_eigen: n_eigen.min(fem.n_dofs()),
         shift,
         tolerance: params.tolerance,
-        until_lambda: if params.n_modes.is_some() {
-            None
-        } else {
-            until
-        },
-        max_eigen: params.max_modes + rigid,
+        // A count and a cutoff: every mode below the cutoff, at most the count (the same
+        // modes as the lowest `n` cut at the cutoff, without solving those above it).
+        until_lambda: until,
+        max_eigen: params.n_modes.unwrap_or(params.max_modes) + rigid,
+        cap_at_max: params.n_modes.is_some(),
         sturm_check: params.sturm_check,
         dof_order: fem.dof_order.clone(),
         method: params.method,
@@ -470,8 +470,10 @@ fn solve_fem(
         info.warnings.push(Warning::new(
             WarningKind::Model,
             format!(
-                "stopped at the maximum of {} modes below the cutoff",
-                params.max_modes
+                "stopped at {} modes (up to {:.0} Hz): the modes above, up to the cutoff {:.0} Hz, are left out",
+                keep.len(),
+                keep.last().map_or(0.0, |&j| units::lambda_to_freq_hz(lambdas[j])),
+                cutoff.unwrap_or(0.0)
             ),
         ));
     }

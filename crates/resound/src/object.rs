@@ -51,6 +51,31 @@ impl ObjectParams {
     }
 }
 
+impl ObjectParams {
+    /// These settings solving only what sounds for a material of stiffness–density ratio
+    /// `gamma_m2_s2` (E/ρ): the modes below `top_hz` in that material, the mode count kept as
+    /// the cap. Modes above the band are never heard (a render drops those above its Nyquist
+    /// frequency), and solving them cost most of the time: 200 modes of a 10 cm steel bar reach
+    /// 270 kHz. Settings with a cutoff of their own, or without a count, are returned as
+    /// they are.
+    pub fn band_limited(&self, gamma_m2_s2: f64, top_hz: f64) -> ObjectParams {
+        let mut p = self.clone();
+        let gamma0 = self.reference_material.stiffness_density_ratio();
+        if p.modal.n_modes.is_some()
+            && p.modal.max_freq_hz.is_none()
+            && gamma_m2_s2 > 0.0
+            && gamma0 > 0.0
+            && top_hz > 0.0
+            && (gamma_m2_s2 * top_hz).is_finite()
+        {
+            // λ scales with γ: f in the reference material is f·√(γ₀/γ). 2 % above, for the
+            // damped frequency's shift.
+            p.modal.max_freq_hz = Some(1.02 * top_hz * (gamma0 / gamma_m2_s2).sqrt());
+        }
+        p
+    }
+}
+
 /// Whether `path` names a saved modal model.
 pub fn is_model_file(path: &Path) -> bool {
     path.extension()

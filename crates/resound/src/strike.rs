@@ -517,7 +517,7 @@ pub fn render_strike_from(
                 crate::object::check_mic_before_solve(object, object_params.scale, mic)?;
             }
             let (material, model, hit, note, warnings) =
-                load_struck_object_warned(source, progress)?;
+                load_struck_object_warned(source, 0.5 * f64::from(p.sample_rate_hz), progress)?;
             let same_object =
                 material.was_estimated_on(&object.display().to_string(), hit.at.point);
             let struck = Struck::Object {
@@ -551,7 +551,8 @@ pub fn source_modes(
             Ok((crate::files::load_stats(path)?.sample(*seed)?, Vec::new()))
         }
         StrikeSource::Object { .. } => {
-            let (material, model, hit, note) = load_struck_object(source, progress)?;
+            let (material, model, hit, note) =
+                load_struck_object(source, 0.5 * sample_rate_hz, progress)?;
             let modes = material.modes(
                 &model.eigenvalues,
                 &hit.gains,
@@ -599,14 +600,14 @@ pub fn object_mode(
             "the duration must be in (0, 60] s, got {duration_s}"
         )));
     }
-    let (material, model, hit, note) = load_struck_object(source, &|_| {})?;
+    let fs = f64::from(sample_rate_hz);
+    let (material, model, hit, note) = load_struck_object(source, 0.5 * fs, &|_| {})?;
     let n = model.eigenvalues.len();
     if k == 0 || k > n {
         return Err(invalid(format!(
             "no mode {k}: the model has {n} (counting from 1)"
         )));
     }
-    let fs = f64::from(sample_rate_hz);
     let all = material.modes_indexed(&model.eigenvalues, &hit.gains, model.gamma0(), 0.5 * fs);
     let Some(m) = all.iter().find(|(i, _)| *i == k - 1).map(|(_, m)| *m) else {
         return Err(invalid(format!(
@@ -649,12 +650,15 @@ pub fn object_mode(
 }
 
 /// The material, model and hit of [`StrikeSource::Object`] (nothing for the other sources),
-/// with the note of a snapped hit.
+/// with the note of a snapped hit. A mesh is solved only up to `top_hz` in the material
+/// ([`crate::object::ObjectParams::band_limited`]).
 fn load_struck_object(
     source: &StrikeSource,
+    top_hz: f64,
     progress: resound_core::ProgressFn<'_>,
 ) -> Result<(SoundMaterial, ModalModel, Hit, Option<String>)> {
-    let (material, model, hit, note, warnings) = load_struck_object_warned(source, progress)?;
+    let (material, model, hit, note, warnings) =
+        load_struck_object_warned(source, top_hz, progress)?;
     for w in warnings {
         progress(resound_core::Progress::Warning(w));
     }
@@ -666,6 +670,7 @@ fn load_struck_object(
 #[allow(clippy::type_complexity)]
 fn load_struck_object_warned(
     source: &StrikeSource,
+    top_hz: f64,
     progress: resound_core::ProgressFn<'_>,
 ) -> Result<(
     SoundMaterial,
@@ -686,7 +691,8 @@ fn load_struck_object_warned(
     };
     let material = load_material_spec(material, library.as_deref())?;
     crate::object::check_hit_before_solve(object, object_params.scale, *hit_m)?;
-    let (model, warnings) = crate::object::load_object_warned(object, object_params, progress)?;
+    let params = object_params.band_limited(material.gamma, top_hz);
+    let (model, warnings) = crate::object::load_object_warned(object, &params, progress)?;
     let (hit, note) = crate::object::snap_hit(&model, *hit_m)?;
     Ok((material, model, hit, note, warnings))
 }

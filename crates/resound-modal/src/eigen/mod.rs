@@ -112,6 +112,10 @@ pub struct EigenParams {
     pub until_lambda: Option<f64>,
     /// Cap on pairs when `until_lambda` is set.
     pub max_eigen: usize,
+    /// When more than `max_eigen` pairs lie below `until_lambda`: solve the lowest
+    /// `max_eigen` (and set [`EigenInfo::capped`]) instead of failing with
+    /// [`ModalError::TooManyModes`]. "Every mode below the cutoff, at most N".
+    pub cap_at_max: bool,
     /// Certify the count below `until_lambda` (or just above the last pair) by inertia.
     pub sturm_check: bool,
     /// Threads for factorization and solves.
@@ -133,6 +137,7 @@ impl Default for EigenParams {
             max_restarts: 200,
             until_lambda: None,
             max_eigen: 4000,
+            cap_at_max: false,
             sturm_check: true,
             par: Par::rayon(0),
             method: EigenMethod::BlockLanczos,
@@ -434,6 +439,21 @@ pub fn solve_generalized(
             let t2 = Instant::now();
             let c = sturm_count(k, m, lc, &symbolic, par)?;
             info.sturm_s = t2.elapsed().as_secs_f64();
+            if c > params.max_eigen && params.cap_at_max {
+                // More below the cutoff than wanted: the lowest `max_eigen`, as a count.
+                let count = EigenParams {
+                    n_eigen: params.max_eigen,
+                    until_lambda: None,
+                    cap_at_max: false,
+                    ..params.clone()
+                };
+                drop(symbolic);
+                let (l, phi, mut more) = solve_generalized(k, m, &count, progress)?;
+                more.capped = true;
+                more.factor_s += info.factor_s;
+                more.sturm_s += info.sturm_s;
+                return Ok((l, phi, more));
+            }
             if c > params.max_eigen {
                 let dim = 3 * (c + c / 5).max(c + 10) + 4 * params.block;
                 return Err(ModalError::TooManyModes {

@@ -551,3 +551,49 @@ fn issue_38_a_24_dof_cube_solves_and_an_empty_band_is_named() {
         .to_string();
     assert!(err.contains("no elastic mode below 20000 Hz"), "{err}");
 }
+
+/// Issue 36: a count and a cutoff together solve the modes below the cutoff, at most the count,
+/// without solving the rest: the same modes as the lowest `n` cut at the cutoff. Past the count,
+/// the lowest `n` come back with a warning naming how far they reach.
+#[test]
+fn issue_36_a_count_and_a_cutoff_solve_only_the_band_and_cap_at_the_count() {
+    let ceramic = Material::preset("ceramic").unwrap();
+    let bar = primitive::bar([0.1, 0.03, 0.005]);
+    let solve = |n_modes: Option<usize>, max_freq_hz: Option<f64>| {
+        let s = ModalBuilder::surface(&bar, &ceramic)
+            .params(ModalParams {
+                n_modes,
+                max_freq_hz,
+                ..Default::default()
+            })
+            .solve()
+            .unwrap();
+        (s.model, s.info)
+    };
+    let (all, _) = solve(Some(40), None);
+    let f_all = all.freqs_hz();
+    // A cutoff between the 12th and 13th modes.
+    let cut = 0.5 * (f_all[11] + f_all[12]);
+    let (band, info) = solve(Some(200), Some(cut));
+    assert_eq!(band.n_modes(), 12, "{:?}", band.freqs_hz());
+    for (a, b) in band.freqs_hz().iter().zip(&f_all) {
+        assert!((a / b - 1.0).abs() < 1e-6, "{a} vs {b}");
+    }
+    // Certified: inertia counts exactly the rigid and kept modes below the cutoff.
+    assert_eq!(info.eigen.sturm_count, Some(12 + 6), "{:?}", info.eigen);
+    assert!(!info.eigen.capped);
+    // The count caps the band: the lowest 8, with a warning.
+    let (capped, info) = solve(Some(8), Some(cut));
+    assert_eq!(capped.n_modes(), 8);
+    assert!(info.eigen.capped);
+    for (a, b) in capped.freqs_hz().iter().zip(&f_all) {
+        assert!((a / b - 1.0).abs() < 1e-6, "{a} vs {b}");
+    }
+    assert!(
+        info.warnings
+            .iter()
+            .any(|w| w.message.contains("stopped at 8 modes")),
+        "{:?}",
+        info.warnings
+    );
+}

@@ -829,11 +829,6 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
     if let Some(mic) = job.params.mic_m {
         crate::object::check_mic_before_solve(&job.object, job.object_params.scale, mic)?;
     }
-    let (model, solve_warnings) =
-        crate::object::load_object_warned(&job.object, &job.object_params, progress)?;
-    for w in &solve_warnings {
-        progress(crate::Progress::Warning(w.clone()));
-    }
     let mut params = EstimateMaterialParams {
         object_name: job.object.display().to_string(),
         ..job.params.clone()
@@ -845,12 +840,91 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
             .and_then(|p| p.file_stem())
             .map_or_else(|| "estimated".into(), |s| s.to_string_lossy().into_owned());
     }
-    let mut out = estimate_on_model(analysed, model, job.hit_m, &params, progress)?;
-    out.info.warnings.splice(0..0, solve_warnings);
+    let solve_and_estimate = |object_params: &crate::object::ObjectParams,
+                              takes: Vec<crate::recording::AnalysedTake>,
+                              warm: Option<&SoundMaterial>|
+     -> Result<EstimateOutcome> {
+        let (model, solve_warnings) =
+            crate::object::load_object_warned(&job.object, object_params, progress)?;
+        for w in &solve_warnings {
+            progress(crate::Progress::Warning(w.clone()));
+        }
+        let mut params = params.clone();
+        params.estimate.warm_start = warm.map(|m| resound_estimate::RayleighParams {
+            alpha: m.alpha,
+            beta: m.beta,
+            gamma: m.gamma,
+            sigma: m.sigma,
+        });
+        let mut out = estimate_on_model(takes, model, job.hit_m, &params, progress)?;
+        out.info.warnings.splice(0..0, solve_warnings);
+        Ok(out)
+    };
+    let full = &job.object_params;
+    // The band a person hears of these recordings: modes above it inform no estimate.
+    let top_hz = analysed
+        .iter()
+        .map(|t| 0.5 * t.analysis.sample_rate_hz)
+        .fold(AUDIBLE_TOP_HZ, f64::min);
+    let first_count = analysed
+        .iter()
+        .map(|t| 2 * t.analysis.modes.len())
+        .max()
+        .unwrap_or(0)
+        .max(FIRST_PASS_MODES);
+    let mut out = match full.modal.n_modes {
+        // A mesh, a mode count and no cutoff: γ is what is estimated, so the band of modes
+        // that sounds is known only after a first estimate. Solve a few modes, estimate,
+        // then solve (at most the count) up to the band in the estimated material when the
+        // first solve fell short of it. A first estimate that fails is redone the long way.
+        Some(n)
+            if first_count < n
+                && full.modal.max_freq_hz.is_none()
+                && !crate::object::is_model_file(&job.object) =>
+        {
+            let mut first = full.clone();
+            first.modal.n_modes = Some(first_count);
+            match solve_and_estimate(&first, analysed.clone(), None) {
+                Ok(out) => {
+                    let gamma0 = out.model.gamma0();
+                    let covered_hz = out.model.eigenvalues.last().map_or(0.0, |&l| {
+                        resound_core::units::lambda_to_freq_hz(l * out.material.gamma / gamma0)
+                    });
+                    if covered_hz >= top_hz {
+                        notes.push(format!(
+                            "solved the lowest {first_count} modes: with the estimated γ they \
+                             reach {covered_hz:.0} Hz, past the {top_hz:.0} Hz heard"
+                        ));
+                        out
+                    } else {
+                        // γ may come out lower once more modes are in: margin of 20 %.
+                        let band = full.band_limited(out.material.gamma / 1.2, top_hz);
+                        // Refined from the first estimate (its low modes are these).
+                        let out = solve_and_estimate(&band, analysed, Some(&out.material))?;
+                        notes.push(format!(
+                            "solved {} modes, up to {top_hz:.0} Hz in the material first \
+                             estimated (the lowest {first_count} reached {covered_hz:.0} Hz)",
+                            out.model.n_modes()
+                        ));
+                        out
+                    }
+                }
+                Err(_) => solve_and_estimate(full, analysed, None)?,
+            }
+        }
+        _ => solve_and_estimate(full, analysed, None)?,
+    };
     notes.append(&mut out.notes);
     out.notes = notes;
     Ok(out)
 }
+
+/// The top of the band a person hears, Hz: modes above it inform no estimate.
+const AUDIBLE_TOP_HZ: f64 = 20_000.0;
+
+/// Modes of an estimate's first solve, at least (twice the most modes one take shows, when
+/// more): enough for a first γ, which tells how many the band holds.
+const FIRST_PASS_MODES: usize = 40;
 
 /// Estimates the material of `model`, struck near `hit_m` (snapped to the surface), from
 /// analysed takes ([`estimate_material_from`]): fits the model's acoustic transfer first when
