@@ -28,7 +28,7 @@ pub struct EstimateArgs {
     /// Scale applied to the mesh coordinates (0.001 for millimetres).
     #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub scale: f64,
-    /// Elastic modes to compute at most when a mesh is given: 40 are solved first, then those
+    /// Elastic modes to compute at most when a mesh is given: 24 are solved first, then those
     /// below 20 kHz (or the recording's Nyquist) in the material first estimated.
     #[arg(long, default_value_t = 200)]
     pub modes: usize,

@@ -924,7 +924,7 @@ const AUDIBLE_TOP_HZ: f64 = 20_000.0;
 
 /// Modes of an estimate's first solve, at least (twice the most modes one take shows, when
 /// more): enough for a first γ, which tells how many the band holds.
-const FIRST_PASS_MODES: usize = 40;
+const FIRST_PASS_MODES: usize = 24;
 
 /// Estimates the material of `model`, struck near `hit_m` (snapped to the surface), from
 /// analysed takes ([`estimate_material_from`]): fits the model's acoustic transfer first when
