@@ -3226,6 +3226,37 @@ fn overlapping_bodies_a_buried_listener_and_an_oversized_scene_are_refused_at_on
 fn issue_36_an_estimate_from_a_mesh_file_solves_only_the_band_it_hears() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
+    // A 3 mm steel ball rings far above hearing: said, not rendered silent.
+    ok(&resound(
+        &[
+            "mesh",
+            "primitive",
+            "sphere",
+            "--size",
+            "0.003",
+            "-o",
+            "tiny.obj",
+        ],
+        d,
+    ));
+    fails_with(
+        &resound(
+            &[
+                "synth",
+                "--material",
+                "steel",
+                "--mesh",
+                "tiny.obj",
+                "--hit",
+                "0.003,0,0",
+                "-o",
+                "t.wav",
+            ],
+            d,
+        ),
+        "no mode of this object sounds below 24000 Hz",
+    );
+    assert!(!d.join("t.wav").exists());
     for (kind, size, material, hit, two_passes) in [
         ("bar", "0.1,0.03,0.005", "steel", "0.03,0.01,0.0025", false),
         ("plate", "0.2,0.15,0.004", "wood", "0.05,0.03,0.002", true),

@@ -240,13 +240,8 @@ impl ModeColumns {
         Complex64::new(em1 * cos - 2.0 * s * s, e * 2.0 * s * c)
     }
 
-    /// `Σ_τ hann[τ] e^{ℓτ}` for `ℓ = σ + jθ`, with the numerator's half angle `half_n`.
-    #[inline]
-    fn hann_sum(&self, theta: f64, half_n: (f64, f64)) -> Complex64 {
-        self.hann_sum_half(theta, (0.5 * theta).sin_cos(), half_n)
-    }
-
-    /// [`Self::hann_sum`] with `(sin θ/2, cos θ/2)` given.
+    /// `Σ_τ hann[τ] e^{ℓτ}` for `ℓ = σ + jθ`, with `(sin θ/2, cos θ/2)` and the numerator's
+    /// half angle `half_n` given.
     #[inline]
     fn hann_sum_half(&self, theta: f64, (s, c): (f64, f64), half_n: (f64, f64)) -> Complex64 {
         let n = Self::em1(self.em1_sigma_w, self.e_sigma_w, half_n);
@@ -309,7 +304,7 @@ impl ModeColumns {
         let turn = |(s, c): (f64, f64)| (s * cd + c * sd, c * cd - s * sd);
         let (mut pos, mut neg) = ((0.0, 1.0), (0.0, 1.0));
         for k in lo..=hi {
-            if (k - lo) % Self::REANCHOR == 0 {
+            if (k - lo).is_multiple_of(Self::REANCHOR) {
                 let wk = self.bin_step * k as f64;
                 pos = (0.5 * (self.omega - wk)).sin_cos();
                 neg = (0.5 * (-self.omega - wk)).sin_cos();

@@ -126,6 +126,14 @@ impl Error {
         }
     }
 
+    /// Whether a modal solve found no elastic mode in its band.
+    pub fn is_no_modes(&self) -> bool {
+        matches!(
+            self.root(),
+            Error::Modal(resound_modal::ModelError::NoModes(_))
+        )
+    }
+
     /// Whether the eigen-solve found more modes below the band edge than it may keep (a
     /// mesh in the wrong unit, or a band too wide): front ends name their settings for it.
     pub fn is_too_many_modes(&self) -> bool {

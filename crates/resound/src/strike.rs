@@ -692,7 +692,20 @@ fn load_struck_object_warned(
     let material = load_material_spec(material, library.as_deref())?;
     crate::object::check_hit_before_solve(object, object_params.scale, *hit_m)?;
     let params = object_params.band_limited(material.gamma, top_hz);
-    let (model, warnings) = crate::object::load_object_warned(object, &params, progress)?;
+    let (model, warnings) =
+        crate::object::load_object_warned(object, &params, progress).map_err(|e| {
+            if e.is_no_modes() && params.modal.max_freq_hz != object_params.modal.max_freq_hz {
+                invalid(format!(
+                    "{}: with {} no mode of this object sounds below {top_hz:.0} Hz, the \
+                     render's Nyquist frequency: its lowest lies higher (a small or stiff \
+                     object; check the mesh's size and unit)",
+                    object.display(),
+                    material.name
+                ))
+            } else {
+                e
+            }
+        })?;
     let (hit, note) = crate::object::snap_hit(&model, *hit_m)?;
     Ok((material, model, hit, note, warnings))
 }
