@@ -28,8 +28,8 @@ pub struct EstimateArgs {
     /// Scale applied to the mesh coordinates (0.001 for millimetres).
     #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub scale: f64,
-    /// Elastic modes to compute at most when a mesh is given: 24 are solved first, then those
-    /// below 20 kHz (or the recording's Nyquist) in the material first estimated.
+    /// Elastic modes to compute at most when a mesh is given: those below 20 kHz (and the
+    /// recorded modes, within the Nyquist frequency) in the estimated material are solved.
     #[arg(long, default_value_t = 200)]
     pub modes: usize,
     /// Reference material for the modal solve (only E/ρ's ratio matters; ν is kept).

@@ -840,6 +840,24 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
             .and_then(|p| p.file_stem())
             .map_or_else(|| "estimated".into(), |s| s.to_string_lossy().into_owned());
     }
+    let full = &job.object_params;
+    // The band heard: to 20 kHz and every recorded mode, within the recordings' Nyquist
+    // frequency. Modes above it inform no estimate.
+    let nyquist_hz = analysed
+        .iter()
+        .map(|t| 0.5 * t.analysis.sample_rate_hz)
+        .fold(f64::INFINITY, f64::min);
+    let highest_hz = analysed
+        .iter()
+        .flat_map(|t| t.analysis.modes.iter().map(|m| m.freq_hz))
+        .fold(0.0, f64::max);
+    let top_hz = AUDIBLE_TOP_HZ.max(1.05 * highest_hz).min(nyquist_hz);
+    let first_count = analysed
+        .iter()
+        .map(|t| 2 * t.analysis.modes.len())
+        .max()
+        .unwrap_or(0)
+        .max(FIRST_PASS_MODES);
     let solve_and_estimate = |object_params: &crate::object::ObjectParams,
                               takes: Vec<crate::recording::AnalysedTake>,
                               warm: Option<&SoundMaterial>|
@@ -849,29 +867,31 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
         for w in &solve_warnings {
             progress(crate::Progress::Warning(w.clone()));
         }
-        let mut params = params.clone();
-        params.estimate.warm_start = warm.map(|m| resound_estimate::RayleighParams {
+        let as_start = |m: &SoundMaterial| resound_estimate::RayleighParams {
             alpha: m.alpha,
             beta: m.beta,
             gamma: m.gamma,
             sigma: m.sigma,
-        });
+        };
+        let mut params = params.clone();
+        params.estimate.warm_start = warm.map(as_start);
+        // Many modes: the search runs on the lowest few (each evaluation's cost grows with
+        // the modes, most with the heavily damped high ones), then the estimate on all of
+        // them is refined from its result, beside the best usual starts.
+        if warm.is_none() && params.mic_m.is_none() && model.n_modes() > first_count {
+            let few = EstimateMaterialParams {
+                residual: false,
+                ..params.clone()
+            };
+            let lowest = lowest_modes(&model, first_count);
+            if let Ok(o) = estimate_on_model(takes.clone(), lowest, job.hit_m, &few, progress) {
+                params.estimate.warm_start = Some(as_start(&o.material));
+            }
+        }
         let mut out = estimate_on_model(takes, model, job.hit_m, &params, progress)?;
         out.info.warnings.splice(0..0, solve_warnings);
         Ok(out)
     };
-    let full = &job.object_params;
-    // The band a person hears of these recordings: modes above it inform no estimate.
-    let top_hz = analysed
-        .iter()
-        .map(|t| 0.5 * t.analysis.sample_rate_hz)
-        .fold(AUDIBLE_TOP_HZ, f64::min);
-    let first_count = analysed
-        .iter()
-        .map(|t| 2 * t.analysis.modes.len())
-        .max()
-        .unwrap_or(0)
-        .max(FIRST_PASS_MODES);
     let mut out = match full.modal.n_modes {
         // A mesh, a mode count and no cutoff: γ is what is estimated, so the band of modes
         // that sounds is known only after a first estimate. Solve a few modes, estimate,
@@ -882,18 +902,46 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
                 && full.modal.max_freq_hz.is_none()
                 && !crate::object::is_model_file(&job.object) =>
         {
+            // The band, guessed: the lowest recorded mode is at or above the object's
+            // fundamental, which a coarse solve of a few modes places (a coarse model rings a
+            // little high: the guess errs wide). A wrong guess (the fundamental unheard) is
+            // caught below by the first estimate.
+            let lowest_hz = analysed
+                .iter()
+                .flat_map(|t| t.analysis.modes.iter().map(|m| m.freq_hz))
+                .filter(|f| *f > 0.0)
+                .fold(f64::INFINITY, f64::min);
             let mut first = full.clone();
             first.modal.n_modes = Some(first_count);
+            if let Some(coarse) = coarse_freqs_hz(&job.object, full, first_count, progress) {
+                let gamma0 = full.reference_material.stiffness_density_ratio();
+                let gamma_max = gamma0 * (lowest_hz / (1.1 * coarse[0])).powi(2);
+                let band = full.band_limited(gamma_max, top_hz);
+                // A band of fewer modes than a first search needs is solved as that count.
+                if band
+                    .modal
+                    .max_freq_hz
+                    .is_some_and(|f| coarse.iter().all(|&c| c < f))
+                {
+                    first = band;
+                }
+            }
             match solve_and_estimate(&first, analysed.clone(), None) {
                 Ok(out) => {
                     let gamma0 = out.model.gamma0();
+                    let solved = out.model.n_modes();
                     let covered_hz = out.model.eigenvalues.last().map_or(0.0, |&l| {
                         resound_core::units::lambda_to_freq_hz(l * out.material.gamma / gamma0)
                     });
-                    if covered_hz >= top_hz {
+                    if covered_hz >= top_hz || solved >= n {
                         notes.push(format!(
-                            "solved the lowest {first_count} modes: with the estimated γ they \
-                             reach {covered_hz:.0} Hz, past the {top_hz:.0} Hz heard"
+                            "solved {solved} modes: with the estimated γ they reach \
+                             {covered_hz:.0} Hz{}",
+                            if covered_hz >= top_hz {
+                                format!(", past the {top_hz:.0} Hz heard")
+                            } else {
+                                String::new()
+                            }
                         ));
                         out
                     } else {
@@ -903,7 +951,7 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
                         let out = solve_and_estimate(&band, analysed, Some(&out.material))?;
                         notes.push(format!(
                             "solved {} modes, up to {top_hz:.0} Hz in the material first \
-                             estimated (the lowest {first_count} reached {covered_hz:.0} Hz)",
+                             estimated (the lowest {solved} reached {covered_hz:.0} Hz)",
                             out.model.n_modes()
                         ));
                         out
@@ -919,11 +967,59 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
     Ok(out)
 }
 
+/// `model` with only its lowest `k` modes.
+fn lowest_modes(model: &ModalModel, k: usize) -> ModalModel {
+    let values = model.vertices.len() * 3;
+    let mut m = model.clone();
+    m.eigenvalues.truncate(k);
+    m.shapes.truncate(k * values);
+    if let Some(t) = &mut m.transfer {
+        t.modes.truncate(k);
+    }
+    m
+}
+
+/// The lowest `count` frequencies (Hz, in the reference material) of the mesh in `path` by a
+/// coarse solve: a quarter of the voxels (or half the resolution), no inertia check. `None`
+/// when that solve fails or gives fewer (the caller then sizes its first solve by a count).
+fn coarse_freqs_hz(
+    path: &Path,
+    full: &crate::object::ObjectParams,
+    count: usize,
+    progress: crate::ProgressFn<'_>,
+) -> Option<Vec<f64>> {
+    let mut modal = full.modal.clone();
+    modal.n_modes = Some(count);
+    modal.max_freq_hz = None;
+    modal.sturm_check = false;
+    if modal.resolution == 0 {
+        modal.target_voxels = (modal.target_voxels / 4).max(500);
+    } else {
+        modal.resolution = (modal.resolution / 2).max(4);
+    }
+    let solved = crate::object::solve_mesh_file(
+        path,
+        full.scale,
+        &full.reference_material,
+        &modal,
+        progress,
+    )
+    .ok()?;
+    let f: Vec<f64> = solved
+        .model
+        .eigenvalues
+        .iter()
+        .map(|&l| resound_core::units::lambda_to_freq_hz(l))
+        .collect();
+    (f.len() == count && f[0] > 0.0 && f.iter().all(|v| v.is_finite())).then_some(f)
+}
+
 /// The top of the band a person hears, Hz: modes above it inform no estimate.
 const AUDIBLE_TOP_HZ: f64 = 20_000.0;
 
-/// Modes of an estimate's first solve, at least (twice the most modes one take shows, when
-/// more): enough for a first γ, which tells how many the band holds.
+/// Modes of an estimate's first search, at least (twice the most modes one take shows, when
+/// more): enough for a first γ, refined on every mode after (and a first solve's count when
+/// no coarse solve could place the fundamental).
 const FIRST_PASS_MODES: usize = 24;
 
 /// Estimates the material of `model`, struck near `hit_m` (snapped to the surface), from
