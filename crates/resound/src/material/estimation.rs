@@ -344,6 +344,42 @@ pub fn estimate_material_from(
         ));
     };
     let tick: &(dyn Fn() + Sync) = &tick;
+    // Many modes: the search runs on the lowest few first (an evaluation's cost grows with
+    // the modes, most with heavily damped high ones), then the estimate on all of them is
+    // refined from its result, beside the best usual starts. With a microphone the modes'
+    // weights change with γ: no shortcut there.
+    let few = first_search_modes(takes.iter().map(|t| t.analysis));
+    if params.estimate.warm_start.is_none()
+        && params.mic_m.is_none()
+        && takes.iter().all(|t| t.model.n_modes() > few)
+    {
+        let models: Vec<ModalModel> = takes.iter().map(|t| lowest_modes(t.model, few)).collect();
+        let hits: Vec<Hit> = takes
+            .iter()
+            .map(|t| Hit {
+                at: t.hit.at,
+                gains: t.hit.gains.iter().take(few).copied().collect(),
+            })
+            .collect();
+        let inputs: Vec<TakeInput<'_>> = takes
+            .iter()
+            .zip(models.iter().zip(&hits))
+            .map(|(t, (model, hit))| TakeInput { model, hit, ..*t })
+            .collect();
+        let search = EstimateMaterialParams {
+            residual: false,
+            ..params.clone()
+        };
+        if let Ok((m, _)) = estimate_takes(&inputs, &search, tick) {
+            let mut refine = params.clone();
+            refine.estimate.warm_start = Some(as_start(&m));
+            let result = estimate_takes(takes, &refine, tick)?;
+            for w in &result.1.warnings {
+                progress(Progress::Warning(w.clone()));
+            }
+            return Ok(result);
+        }
+    }
     let result = estimate_takes(takes, params, tick)?;
     for w in &result.1.warnings {
         progress(Progress::Warning(w.clone()));
@@ -852,12 +888,7 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
         .flat_map(|t| t.analysis.modes.iter().map(|m| m.freq_hz))
         .fold(0.0, f64::max);
     let top_hz = AUDIBLE_TOP_HZ.max(1.05 * highest_hz).min(nyquist_hz);
-    let first_count = analysed
-        .iter()
-        .map(|t| 2 * t.analysis.modes.len())
-        .max()
-        .unwrap_or(0)
-        .max(FIRST_PASS_MODES);
+    let first_count = first_search_modes(analysed.iter().map(|t| &t.analysis));
     let solve_and_estimate = |object_params: &crate::object::ObjectParams,
                               takes: Vec<crate::recording::AnalysedTake>,
                               warm: Option<&SoundMaterial>|
@@ -867,27 +898,8 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
         for w in &solve_warnings {
             progress(crate::Progress::Warning(w.clone()));
         }
-        let as_start = |m: &SoundMaterial| resound_estimate::RayleighParams {
-            alpha: m.alpha,
-            beta: m.beta,
-            gamma: m.gamma,
-            sigma: m.sigma,
-        };
         let mut params = params.clone();
         params.estimate.warm_start = warm.map(as_start);
-        // Many modes: the search runs on the lowest few (each evaluation's cost grows with
-        // the modes, most with the heavily damped high ones), then the estimate on all of
-        // them is refined from its result, beside the best usual starts.
-        if warm.is_none() && params.mic_m.is_none() && model.n_modes() > first_count {
-            let few = EstimateMaterialParams {
-                residual: false,
-                ..params.clone()
-            };
-            let lowest = lowest_modes(&model, first_count);
-            if let Ok(o) = estimate_on_model(takes.clone(), lowest, job.hit_m, &few, progress) {
-                params.estimate.warm_start = Some(as_start(&o.material));
-            }
-        }
         let mut out = estimate_on_model(takes, model, job.hit_m, &params, progress)?;
         out.info.warnings.splice(0..0, solve_warnings);
         Ok(out)
@@ -965,6 +977,26 @@ pub fn estimate_files(job: &EstimateFiles, progress: ProgressFn<'_>) -> Result<E
     notes.append(&mut out.notes);
     out.notes = notes;
     Ok(out)
+}
+
+/// Modes of an estimate's first search: [`FIRST_PASS_MODES`], or twice the most modes one
+/// take shows when more.
+fn first_search_modes<'a>(analyses: impl Iterator<Item = &'a Analysis>) -> usize {
+    analyses
+        .map(|a| 2 * a.modes.len())
+        .max()
+        .unwrap_or(0)
+        .max(FIRST_PASS_MODES)
+}
+
+/// A material as a start of the estimate's search.
+fn as_start(m: &SoundMaterial) -> RayleighParams {
+    RayleighParams {
+        alpha: m.alpha,
+        beta: m.beta,
+        gamma: m.gamma,
+        sigma: m.sigma,
+    }
 }
 
 /// `model` with only its lowest `k` modes.
