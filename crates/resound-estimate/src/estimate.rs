@@ -371,8 +371,15 @@ pub fn starting_points_within(
 pub const MAX_STARTS: usize = 12;
 
 /// Usual starts kept beside a warm start ([`EstimateParams::warm_start`]): a guard against a
-/// first estimate that paired the wrong modes, at a third of the usual cost.
+/// first estimate that paired the wrong modes, at a third of the usual cost. Only starts whose
+/// metric at the start already beats the warm start's by more than 1 %, at a γ another pairing
+/// gives (more than [`RIVAL_GAMMA_RATIO`] away), run: a warm start that is the optimum of a
+/// search on fewer modes needs no rival in its own basin (there it differs from the usual
+/// starts by its polished α, β only, which the refinement revisits anyway).
 pub const WARM_OTHER_STARTS: usize = 3;
+
+/// γ ratio beyond which a usual start lies in another basin than the warm start.
+pub const RIVAL_GAMMA_RATIO: f64 = 1.02;
 
 /// Estimates {α, β, γ, σ} from an onset-aligned recording `signal`, its analysed modes and the
 /// object's modal side.
@@ -415,18 +422,30 @@ pub fn estimate(
     }
     // Prune hopeless starts: one metric evaluation each, keep the best.
     let mut starts = starts;
-    let kept = if warm.is_some() {
-        WARM_OTHER_STARTS
-    } else {
-        MAX_STARTS
+    let (kept, to_beat) = match &warm {
+        Some(w) => (
+            WARM_OTHER_STARTS,
+            Some(objective.hybrid(w))
+                .filter(|m| !m.is_nan())
+                .unwrap_or(f64::INFINITY),
+        ),
+        None => (MAX_STARTS, f64::INFINITY),
     };
-    if starts.len() > kept {
+    if starts.len() > kept || to_beat.is_finite() {
         let mut scored: Vec<(f64, RayleighParams)> = starts
             .par_iter()
             .map(|p| (objective.hybrid(p), *p))
             .collect();
         scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-        starts = scored.into_iter().take(kept).map(|(_, p)| p).collect();
+        starts = scored
+            .into_iter()
+            .take(kept)
+            .filter(|(m, p)| {
+                *m < 0.99 * to_beat
+                    && warm.is_none_or(|w| (p.gamma / w.gamma).ln().abs() > RIVAL_GAMMA_RATIO.ln())
+            })
+            .map(|(_, p)| p)
+            .collect();
     }
     starts.splice(0..0, warm);
     // Successive halving: every start gets a quarter of the iterations; of those still moving,
@@ -707,6 +726,43 @@ mod tests {
             );
         }
         assert!(est.starts >= 1);
+    }
+
+    #[test]
+    fn a_warm_start_runs_alone_only_while_no_usual_start_beats_it() {
+        let s = side();
+        let truth = RayleighParams {
+            alpha: 6.0,
+            beta: 2e-7,
+            gamma: 2.3e7,
+            sigma: 4.0e3,
+        };
+        let fs = 44100.0;
+        let modes = forward_modes(&s.eigenvalues0, &s.gains0, s.gamma0, &truth, 0.5 * fs);
+        let x = synthesize(&modes, fs, 22050);
+        let run = |warm: RayleighParams| {
+            let p = EstimateParams {
+                warm_start: Some(warm),
+                ..EstimateParams::default()
+            };
+            estimate(&s, &x, fs, &modes, &p, &|| {}).unwrap()
+        };
+        // At the optimum (a search on fewer modes found it): no usual start is better at the
+        // start, so it runs alone.
+        let near = run(truth);
+        assert_eq!(near.starts, 1);
+        assert!((near.params.gamma / truth.gamma - 1.0).abs() < 1e-3);
+        // Two octaves off (another pairing): usual starts beat it and run beside it, and
+        // the estimate still finds the truth.
+        let far = run(RayleighParams {
+            gamma: truth.gamma * 16.0,
+            ..truth
+        });
+        assert!(far.starts > 1, "{far:?}");
+        assert!(
+            (far.params.gamma / truth.gamma - 1.0).abs() < 1e-3,
+            "{far:?}"
+        );
     }
 
     #[test]

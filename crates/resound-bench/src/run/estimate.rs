@@ -79,6 +79,19 @@ pub fn run_estimate(a: EstimateBenchArgs) -> Result<()> {
         bias_rows.push(r);
     }
     let file_rows = from_files(a.json)?;
+    if !a.json {
+        let mut t: Vec<f64> = rows
+            .iter()
+            .map(|r| r.elapsed_s)
+            .chain(file_rows.iter().map(|r| r.elapsed_s))
+            .collect();
+        t.sort_by(f64::total_cmp);
+        println!(
+            "every case: median {:.2} s of {} (target 2 s)",
+            t[t.len() / 2],
+            t.len()
+        );
+    }
     if a.json {
         println!(
             "{}",
