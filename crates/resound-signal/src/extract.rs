@@ -290,23 +290,32 @@ struct Patch<'a> {
 
 impl Patch<'_> {
     /// Best complex amplitudes `a e^{jθ}` for the modes `(f, d)` (linear least squares, real
-    /// unknowns Re/Im per mode) and the relative residual.
+    /// unknowns Re/Im per mode) and the relative residual. A patch fits one mode or two
+    /// neighbours ([`fit_group`]); more are refused (`INFINITY`).
     fn solve(&self, fd: &[(f64, f64)]) -> (Vec<Complex64>, f64) {
-        let k_modes = fd.len();
-        let n = 2 * k_modes;
-        let mut g = vec![0.0; n * n];
-        let mut b = vec![0.0; n];
+        match fd {
+            [a] => self.solve_fixed::<1, 2>([*a]),
+            [a, b] => self.solve_fixed::<2, 4>([*a, *b]),
+            _ => (vec![Complex64::new(0.0, 0.0); fd.len()], f64::INFINITY),
+        }
+    }
+
+    /// [`Self::solve`] for `K` modes, `N = 2K` real unknowns: the Gram matrix and the
+    /// right-hand side accumulate in fixed arrays the compiler keeps in registers (this is
+    /// the inner loop of every Nelder–Mead step of the extraction).
+    fn solve_fixed<const K: usize, const N: usize>(
+        &self,
+        fd: [(f64, f64); K],
+    ) -> (Vec<Complex64>, f64) {
+        debug_assert_eq!(N, 2 * K);
+        let mut g = [[0.0; N]; N];
+        let mut b = [0.0; N];
         let mut xx = 0.0;
-        let mut cols = vec![Complex64::new(0.0, 0.0); n];
-        let mut state: Vec<[Complex64; 4]> = Vec::with_capacity(k_modes);
-        let columns: Vec<ModeColumns> = fd
-            .iter()
-            .map(|&(f, d)| ModeColumns::new(self.spec, f, d))
-            .collect();
+        let columns = fd.map(|(f, d)| ModeColumns::new(self.spec, f, d));
         for k in self.bins.clone() {
-            state.clear();
-            state.extend(columns.iter().map(|c| c.column(k)));
+            let mut state = columns.each_ref().map(|c| c.column(k));
             for m in 0..self.frames {
+                let mut cols = [Complex64::new(0.0, 0.0); N];
                 for (j, st) in state.iter_mut().enumerate() {
                     cols[2 * j] = st[0] + st[1];
                     cols[2 * j + 1] = Complex64::new(0.0, 1.0) * (st[0] - st[1]);
@@ -315,26 +324,27 @@ impl Patch<'_> {
                 }
                 let x = self.spec.at(m, k);
                 xx += x.norm_sqr();
-                for a in 0..n {
+                for a in 0..N {
                     let ca = cols[a];
                     b[a] += ca.re * x.re + ca.im * x.im;
-                    for c in a..n {
-                        g[a * n + c] += ca.re * cols[c].re + ca.im * cols[c].im;
+                    for c in a..N {
+                        g[a][c] += ca.re * cols[c].re + ca.im * cols[c].im;
                     }
                 }
             }
         }
-        for a in 0..n {
-            for c in 0..a {
-                g[a * n + c] = g[c * n + a];
+        let mut flat = [0.0; 16];
+        for a in 0..N {
+            for c in 0..N {
+                flat[a * N + c] = if c < a { g[c][a] } else { g[a][c] };
             }
-            g[a * n + a] *= 1.0 + 1e-12;
+            flat[a * N + a] *= 1.0 + 1e-12;
         }
-        let Some(coef) = crate::refine::cholesky_solve(&mut g, &b, n) else {
-            return (vec![Complex64::new(0.0, 0.0); k_modes], f64::INFINITY);
+        let Some(coef) = crate::refine::cholesky_solve(&mut flat[..N * N], &b, N) else {
+            return (vec![Complex64::new(0.0, 0.0); K], f64::INFINITY);
         };
         if !(xx > 0.0) {
-            return (vec![Complex64::new(0.0, 0.0); k_modes], f64::INFINITY);
+            return (vec![Complex64::new(0.0, 0.0); K], f64::INFINITY);
         }
         // Residual of a linear LS fit: |x|² − bᵀ·coef.
         let explained: f64 = coef.iter().zip(&b).map(|(c, b)| c * b).sum();

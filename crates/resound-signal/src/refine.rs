@@ -386,15 +386,22 @@ fn poles_of(p: &[f64], sample_rate_hz: f64) -> Vec<(C64, C64)> {
 /// does not drift) and is filled in structure-of-arrays form, so the sums over samples vectorise.
 const BLOCK: usize = 512;
 
-/// Calls `visit(start, len, re, im)` for consecutive blocks of the `total` samples, where
+/// What [`walk`] hands each block to.
+trait Visit {
+    fn visit(&mut self, start: usize, len: usize, re: &[[f64; BLOCK]], im: &[[f64; BLOCK]]);
+}
+
+impl<F: FnMut(usize, usize, &[[f64; BLOCK]], &[[f64; BLOCK]])> Visit for F {
+    #[inline(always)]
+    fn visit(&mut self, start: usize, len: usize, re: &[[f64; BLOCK]], im: &[[f64; BLOCK]]) {
+        self(start, len, re, im);
+    }
+}
+
+/// Calls `visit.visit(start, len, re, im)` for consecutive blocks of the `total` samples, where
 /// `re[j][..len]` and `im[j][..len]` hold `z_jⁿ` for `n = start..start + len`.
 #[inline(always)]
-fn walk(
-    p: &[f64],
-    sample_rate_hz: f64,
-    total: usize,
-    mut visit: impl FnMut(usize, usize, &[[f64; BLOCK]], &[[f64; BLOCK]]),
-) {
+fn walk(p: &[f64], sample_rate_hz: f64, total: usize, visit: &mut impl Visit) {
     let poles = poles_of(p, sample_rate_hz);
     let k = poles.len();
     let dt = 1.0 / sample_rate_hz;
@@ -419,7 +426,7 @@ fn walk(
                 }
             }
         }
-        visit(start, len, &re, &im);
+        visit.visit(start, len, &re, &im);
         start += len;
     }
 }
@@ -445,10 +452,15 @@ pub(crate) fn cost(y: &[f64], p: &[f64], sample_rate_hz: f64) -> f64 {
     let amps: Vec<C64> = poles_of(p, sample_rate_hz).iter().map(|q| q.1).collect();
     let mut c = 0.0;
     let mut r = [0.0; BLOCK];
-    walk(p, sample_rate_hz, y.len(), |start, len, re, im| {
-        block_residual(&y[start..start + len], &amps, re, im, &mut r);
-        c += dot(&r[..len], &r[..len]);
-    });
+    walk(
+        p,
+        sample_rate_hz,
+        y.len(),
+        &mut |start, len, re: &[[f64; BLOCK]], im: &[[f64; BLOCK]]| {
+            block_residual(&y[start..start + len], &amps, re, im, &mut r);
+            c += dot(&r[..len], &r[..len]);
+        },
+    );
     c
 }
 
@@ -602,29 +614,66 @@ pub(crate) struct ResidualSums {
     r1: Vec<C64>,
 }
 
-/// The one pass over the samples of [`normal_equations`].
+/// The one pass over the samples of [`normal_equations`], compiled for AVX2 where the CPU has
+/// it (the same operations in the same order: the sums do not change, only the vector width).
 pub(crate) fn residual_sums(y: &[f64], p: &[f64], sample_rate_hz: f64) -> ResidualSums {
+    /// The pass as a [`pulp::WithSimd`] operation: inlined into the dispatcher's AVX2 body
+    /// (a closure would be compiled apart, for the baseline CPU).
+    struct Pass<'a>(&'a [f64], &'a [f64], f64);
+    impl pulp::WithSimd for Pass<'_> {
+        type Output = ResidualSums;
+        #[inline(always)]
+        fn with_simd<S: pulp::Simd>(self, _: S) -> ResidualSums {
+            residual_sums_inline(self.0, self.1, self.2)
+        }
+    }
+    pulp::Arch::new().dispatch(Pass(y, p, sample_rate_hz))
+}
+
+#[inline(always)]
+fn residual_sums_inline(y: &[f64], p: &[f64], sample_rate_hz: f64) -> ResidualSums {
+    /// One block's share of the sums (a method, not a closure, so that it is inlined into the
+    /// vectorised body).
+    struct Sums<'a> {
+        y: &'a [f64],
+        amps: Vec<C64>,
+        dt: f64,
+        r: [f64; BLOCK],
+        rt: [f64; BLOCK],
+        out: ResidualSums,
+    }
+    impl Visit for Sums<'_> {
+        #[inline(always)]
+        fn visit(&mut self, start: usize, len: usize, re: &[[f64; BLOCK]], im: &[[f64; BLOCK]]) {
+            let (r, rt, out) = (&mut self.r, &mut self.rt, &mut self.out);
+            block_residual(&self.y[start..start + len], &self.amps, re, im, r);
+            out.cost += dot(&r[..len], &r[..len]);
+            for (i, (v, &x)) in rt.iter_mut().zip(r.iter()).enumerate() {
+                *v = x * ((start + i) as f64 * self.dt);
+            }
+            for j in 0..out.r0.len() {
+                let (zr, zi) = (&re[j][..len], &im[j][..len]);
+                out.r0[j] += C64::new(dot(&r[..len], zr), dot(&r[..len], zi));
+                out.r1[j] += C64::new(dot(&rt[..len], zr), dot(&rt[..len], zi));
+            }
+        }
+    }
     let k = p.len() / P;
-    let dt = 1.0 / sample_rate_hz;
     let zero = C64::new(0.0, 0.0);
-    let mut r0 = vec![zero; k];
-    let mut r1 = vec![zero; k];
-    let amps: Vec<C64> = poles_of(p, sample_rate_hz).iter().map(|q| q.1).collect();
-    let mut c0 = 0.0;
-    let (mut r, mut rt) = ([0.0; BLOCK], [0.0; BLOCK]);
-    walk(p, sample_rate_hz, y.len(), |start, len, re, im| {
-        block_residual(&y[start..start + len], &amps, re, im, &mut r);
-        c0 += dot(&r[..len], &r[..len]);
-        for (i, (v, &x)) in rt.iter_mut().zip(&r).enumerate() {
-            *v = x * ((start + i) as f64 * dt);
-        }
-        for j in 0..k {
-            let (zr, zi) = (&re[j][..len], &im[j][..len]);
-            r0[j] += C64::new(dot(&r[..len], zr), dot(&r[..len], zi));
-            r1[j] += C64::new(dot(&rt[..len], zr), dot(&rt[..len], zi));
-        }
-    });
-    ResidualSums { cost: c0, r0, r1 }
+    let mut sums = Sums {
+        y,
+        amps: poles_of(p, sample_rate_hz).iter().map(|q| q.1).collect(),
+        dt: 1.0 / sample_rate_hz,
+        r: [0.0; BLOCK],
+        rt: [0.0; BLOCK],
+        out: ResidualSums {
+            cost: 0.0,
+            r0: vec![zero; k],
+            r1: vec![zero; k],
+        },
+    };
+    walk(p, sample_rate_hz, y.len(), &mut sums);
+    sums.out
 }
 
 /// The closed-form part of [`normal_equations`]: `JᵀJ` (upper triangle) from the poles, `Jᵀr`
@@ -678,7 +727,7 @@ fn assemble(
 }
 
 /// Dot product with four independent accumulators (vectorises).
-#[inline]
+#[inline(always)]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut acc = [0.0; 4];
     let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
