@@ -440,9 +440,12 @@ pub fn estimate(
         starts = scored
             .into_iter()
             .take(kept)
+            // Without a warm start every kept start runs, whatever its metric (a take with
+            // nothing to fit is left out later by its result, not here).
             .filter(|(m, p)| {
-                *m < 0.99 * to_beat
-                    && warm.is_none_or(|w| (p.gamma / w.gamma).ln().abs() > RIVAL_GAMMA_RATIO.ln())
+                warm.is_none_or(|w| {
+                    *m < 0.99 * to_beat && (p.gamma / w.gamma).ln().abs() > RIVAL_GAMMA_RATIO.ln()
+                })
             })
             .map(|(_, p)| p)
             .collect();

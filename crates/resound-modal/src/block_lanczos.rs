@@ -125,7 +125,11 @@ pub fn block_lanczos(
     let nev = p.nev.min(n);
     let max_dim = p.max_dim.clamp(nev + b, n.max(nev + b)).min(n);
     let mut state = p.seed ^ 0x9E37_79B9_7F4A_7C15;
-    let mut q = Mat::<f64>::zeros(n, max_dim + b);
+    // The basis grows a block at a time inside memory reserved once: pages of columns never
+    // reached (the space converges well short of `max_dim`) are never touched, so they cost
+    // no resident memory and no copy.
+    let mut q = Mat::<f64>::with_capacity(n, max_dim + b);
+    q.resize_with(n, b, |_, _| 0.0);
     let mut t = Mat::<f64>::zeros(max_dim + b, max_dim + b);
     let x0 = random_block(n, b, &mut state);
     let q0 = x0.qr().compute_thin_Q();
@@ -218,6 +222,7 @@ pub fn block_lanczos(
                 }
             }
         }
+        q.resize_with(n, k + b, |_, _| 0.0);
         q.as_mut().subcols_mut(k, b).copy_from(&qn);
     }
     info.dim = k;

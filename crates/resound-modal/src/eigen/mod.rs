@@ -328,6 +328,9 @@ fn residuals_with_m(
         .fold(0.0, |a, r| if r.is_nan() { f64::NAN } else { a.max(r) })
 }
 
+/// Columns of φ multiplied by K at once in [`residuals_each`].
+const RESIDUAL_CHUNK: usize = 32;
+
 /// The relative residual ‖Kφ − λMφ‖/‖λMφ‖ of each pair, given Mφ; 0 for rigid pairs (λ
 /// below 10⁻⁶ of the largest, or below 1 Hz: a set of rigid pairs alone, as a stiff object
 /// below a cutoff gives, has no elastic λ to compare with), NaN for a pair that is not finite.
@@ -346,17 +349,21 @@ fn residuals_each(
     if sel.is_empty() {
         return each;
     }
-    let sub = Mat::<f64>::from_fn(phi.nrows(), sel.len(), |i, c| phi[(i, sel[c])]);
-    let kp = sym_matmul(k, sub.as_ref());
-    for (c, &j) in sel.iter().enumerate() {
-        let lam = lambdas[j];
-        let (mut r2, mut m2) = (0.0, 0.0);
-        for i in 0..phi.nrows() {
-            let r = kp[(i, c)] - lam * mphi[(i, j)];
-            r2 += r * r;
-            m2 += (lam * mphi[(i, j)]).powi(2);
+    // Kφ a few columns at a time: the whole set would hold two more n × pairs matrices at
+    // the solve's peak of memory.
+    for chunk in sel.chunks(RESIDUAL_CHUNK) {
+        let sub = Mat::<f64>::from_fn(phi.nrows(), chunk.len(), |i, c| phi[(i, chunk[c])]);
+        let kp = sym_matmul(k, sub.as_ref());
+        for (c, &j) in chunk.iter().enumerate() {
+            let lam = lambdas[j];
+            let (mut r2, mut m2) = (0.0, 0.0);
+            for i in 0..phi.nrows() {
+                let r = kp[(i, c)] - lam * mphi[(i, j)];
+                r2 += r * r;
+                m2 += (lam * mphi[(i, j)]).powi(2);
+            }
+            each[j] = (r2 / m2).sqrt();
         }
-        each[j] = (r2 / m2).sqrt();
     }
     each
 }
@@ -528,8 +535,10 @@ pub fn solve_generalized(
                     };
                     // Keep L⁻ᵀQ_j per block, side by side: the eigenvectors are then (L⁻ᵀQ)S, one
                     // GEMM and no extra solve.
+                    // Reserved once, touched a block at a time (as Lanczos' own basis).
+                    let capacity = bp.max_dim + bp.block;
                     let kept: std::cell::RefCell<(Mat<f64>, usize)> =
-                        std::cell::RefCell::new((Mat::<f64>::zeros(n, bp.max_dim + bp.block), 0));
+                        std::cell::RefCell::new((Mat::<f64>::with_capacity(n, capacity), 0));
                     let ltq_times = |s: MatRef<'_, f64>| {
                         let kept = kept.borrow();
                         let rows = s.nrows().min(kept.1);
@@ -539,7 +548,8 @@ pub fn solve_generalized(
                         let (w, lt) = op.apply_block(x, par);
                         let mut kept = kept.borrow_mut();
                         let (store, used) = &mut *kept;
-                        let cols = lt.ncols().min(store.ncols() - *used);
+                        let cols = lt.ncols().min(capacity - *used);
+                        store.resize_with(n, *used + cols, |_, _| 0.0);
                         store
                             .as_mut()
                             .subcols_mut(*used, cols)
@@ -563,7 +573,7 @@ pub fn solve_generalized(
                         let cols: Vec<usize> = (lo..want).collect();
                         let sub =
                             Mat::<f64>::from_fn(s.nrows(), cols.len(), |i, c| s[(i, cols[c])]);
-                        let phi = op.unpermute(ltq_times(sub.as_ref()).as_ref());
+                        let phi = op.unpermute(ltq_times(sub.as_ref()));
                         let lam: Vec<f64> = cols.iter().map(|&c| sigma + 1.0 / theta[c]).collect();
                         if !(residuals(k, m, &lam, phi.as_ref()) <= margin * params.tolerance) {
                             return false;
@@ -575,7 +585,7 @@ pub fn solve_generalized(
                         // (each costs a K and an M product of every wanted vector).
                         next_full.set(s.nrows() + s.nrows().div_ceil(7));
                         let lam: Vec<f64> = (0..want).map(|c| sigma + 1.0 / theta[c]).collect();
-                        let mut phi = op.unpermute(ltq_times(s.subcols(0, want)).as_ref());
+                        let mut phi = op.unpermute(ltq_times(s.subcols(0, want)));
                         let Some(mphi) = m_normalize(m, &mut phi) else {
                             return false;
                         };
@@ -625,7 +635,7 @@ pub fn solve_generalized(
         let ysorted = Mat::<f64>::from_fn(n, nev, |r, c| y[(r, order[c])]);
         let mut phi = match params.method {
             EigenMethod::Lanczos => op.back_transform(ysorted.as_ref(), par),
-            EigenMethod::BlockLanczos => op.unpermute(ysorted.as_ref()),
+            EigenMethod::BlockLanczos => op.unpermute(ysorted),
         };
         let Some(mphi) = m_normalize(m, &mut phi) else {
             return Err(ModalError::NoConvergence {

@@ -103,15 +103,19 @@ impl ShiftInvert<'_> {
         (w, lt)
     }
 
-    /// φ (original ordering) from L⁻ᵀy already in the permuted ordering.
-    pub(super) fn unpermute(&self, w: MatRef<'_, f64>) -> Mat<f64> {
-        let mut out = Mat::<f64>::zeros(w.nrows(), w.ncols());
+    /// φ (original ordering) from L⁻ᵀy already in the permuted ordering, in place: a column
+    /// at a time through one column of scratch, so no second n × k matrix is held.
+    pub(super) fn unpermute(&self, mut w: Mat<f64>) -> Mat<f64> {
+        let mut column = vec![0.0; w.nrows()];
         for c in 0..w.ncols() {
-            for i in 0..w.nrows() {
-                out[(self.fwd[i], c)] = w[(i, c)];
+            for (i, v) in column.iter_mut().enumerate() {
+                *v = w[(i, c)];
+            }
+            for (i, &v) in column.iter().enumerate() {
+                w[(self.fwd[i], c)] = v;
             }
         }
-        out
+        w
     }
 }
 
