@@ -108,17 +108,17 @@ fn next_block(q: MatRef<'_, f64>, w: Mat<f64>, tiny: f64, state: &mut u64) -> (M
 }
 
 /// The `nev` largest eigenpairs of the symmetric operator `apply` (n × n): θ descending and the
-/// Ritz coefficients S (k × nev) such that the orthonormal eigenvectors are Q S, where Q holds
-/// the k block inputs passed to `apply` in order (callers that keep a transform of each input,
-/// as shift-invert does with L⁻ᵀQ, get the transformed vectors as (transform) S). Returns the best
-/// available pairs after `max_dim` when fewer than `nev` converged.
+/// orthonormal Ritz vectors Y = Q S (n × nev), where Q holds the block inputs passed to `apply`.
+/// Returns the best available pairs after `max_dim` when fewer than `nev` converged.
 ///
-/// `accept(θ, S)` is asked, at each convergence check where every wanted Ritz estimate meets
-/// `tol`, whether the pairs are good enough (e.g. by their true residuals); `true` stops.
+/// `accept(θ, S, Q)` is asked, at each convergence check where every wanted Ritz estimate meets
+/// `tol`, whether the pairs are good enough (e.g. by their true residuals, from Q S); `true`
+/// stops. Callers that need a transform of the Ritz vectors (shift-invert's L⁻ᵀ) apply it to
+/// Q S: keeping the transform of every input instead would double the memory of the basis.
 pub fn block_lanczos(
     n: usize,
     apply: &mut dyn FnMut(MatRef<'_, f64>) -> Mat<f64>,
-    accept: &mut dyn FnMut(&[f64], MatRef<'_, f64>) -> bool,
+    accept: &mut dyn FnMut(&[f64], MatRef<'_, f64>, MatRef<'_, f64>) -> bool,
     p: &BlockLanczosParams,
 ) -> (Vec<f64>, Mat<f64>, BlockLanczosInfo) {
     let b = p.block.clamp(1, n.max(1));
@@ -215,7 +215,7 @@ pub fn block_lanczos(
             if conv >= need || last {
                 let sel = Mat::<f64>::from_fn(k, nev, |i, c| s[(i, order[c])]);
                 let th: Vec<f64> = order.iter().take(nev).map(|&i| theta[i]).collect();
-                let ok = last || accept(&th, sel.as_ref());
+                let ok = last || accept(&th, sel.as_ref(), q.as_ref().subcols(0, k));
                 if ok {
                     result = Some((th, sel));
                     break;
@@ -226,8 +226,14 @@ pub fn block_lanczos(
         q.as_mut().subcols_mut(k, b).copy_from(&qn);
     }
     info.dim = k;
-    let (theta, s) = result.unwrap_or_else(|| (vec![0.0; nev], Mat::<f64>::zeros(k.max(1), nev)));
-    (theta, s, info)
+    let (theta, y) = match result {
+        Some((th, sel)) => {
+            let y = q.as_ref().subcols(0, sel.nrows()) * &sel;
+            (th, y)
+        }
+        None => (vec![0.0; nev], Mat::<f64>::zeros(n, nev)),
+    };
+    (theta, y, info)
 }
 
 #[cfg(test)]
@@ -249,14 +255,25 @@ mod tests {
             tol: 1e-10,
             seed: 1,
         };
-        let mut inputs: Vec<Mat<f64>> = Vec::new();
-        let mut apply = |x: MatRef<'_, f64>| {
-            inputs.push(x.to_owned());
-            Mat::<f64>::from_fn(x.nrows(), x.ncols(), |i, c| d[i] * x[(i, c)])
+        let mut apply =
+            |x: MatRef<'_, f64>| Mat::<f64>::from_fn(x.nrows(), x.ncols(), |i, c| d[i] * x[(i, c)]);
+        // What `accept` is shown: an orthonormal basis Q whose Q S is the result returned.
+        let mut seen: Option<Mat<f64>> = None;
+        let mut accept = |_: &[f64], s: MatRef<'_, f64>, q: MatRef<'_, f64>| {
+            assert_eq!(q.ncols(), s.nrows());
+            let g = q.transpose() * q;
+            for i in 0..q.ncols() {
+                for j in 0..q.ncols() {
+                    let e = if i == j { 1.0 } else { 0.0 };
+                    assert!((g[(i, j)] - e).abs() < 1e-10, "QᵀQ[{i},{j}] = {}", g[(i, j)]);
+                }
+            }
+            seen = Some(q * s);
+            true
         };
-        let (theta, s, info) = block_lanczos(n, &mut apply, &mut |_, _| true, &p);
-        let q = Mat::<f64>::from_fn(n, s.nrows(), |i, c| inputs[c / 4][(i, c % 4)]);
-        let y = &q * &s;
+        let (theta, y, info) = block_lanczos(n, &mut apply, &mut accept, &p);
+        let seen = seen.expect("accept was asked");
+        assert!((&seen - &y).norm_max() < 1e-14);
         assert_eq!(info.converged, 12, "{info:?}");
         let mut want: Vec<f64> = d.clone();
         want.sort_by(|a, b| b.total_cmp(a));

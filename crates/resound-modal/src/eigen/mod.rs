@@ -225,7 +225,13 @@ fn solve_dense(
     lambdas.truncate(wanted);
     let phi = phi.subcols(0, wanted).to_owned();
     let mphi = sym_matmul(m, phi.as_ref());
-    info.max_rel_residual = residuals_with_m(k, &lambdas, phi.as_ref(), mphi.as_ref());
+    info.max_rel_residual = residuals_with_m(
+        k,
+        &lambdas,
+        phi.as_ref(),
+        mphi.as_ref(),
+        rigid_below(&lambdas),
+    );
     info.converged = wanted;
     info.rounds = 1;
     info.eigen_s = t0.elapsed().as_secs_f64();
@@ -305,25 +311,15 @@ fn lanczos(
     Ok((y, theta, out.n_converged_eigen))
 }
 
-/// Largest ‖Kφ − λMφ‖ / ‖λMφ‖ over pairs with λ above round-off (rigid modes excluded).
-fn residuals(
-    k: SparseColMatRef<'_, usize, f64>,
-    m: SparseColMatRef<'_, usize, f64>,
-    lambdas: &[f64],
-    phi: MatRef<'_, f64>,
-) -> f64 {
-    let mp = sym_matmul(m, phi);
-    residuals_with_m(k, lambdas, phi, mp.as_ref())
-}
-
 /// Largest relative residual ‖Kφ − λMφ‖/‖λMφ‖ of the (non-rigid) pairs, given Mφ.
 fn residuals_with_m(
     k: SparseColMatRef<'_, usize, f64>,
     lambdas: &[f64],
     phi: MatRef<'_, f64>,
     mphi: MatRef<'_, f64>,
+    rigid_below: f64,
 ) -> f64 {
-    residuals_each(k, lambdas, phi, mphi)
+    residuals_each(k, lambdas, phi, mphi, rigid_below)
         .into_iter()
         .fold(0.0, |a, r| if r.is_nan() { f64::NAN } else { a.max(r) })
 }
@@ -331,17 +327,27 @@ fn residuals_with_m(
 /// Columns of φ multiplied by K at once in [`residuals_each`].
 const RESIDUAL_CHUNK: usize = 32;
 
-/// The relative residual ‖Kφ − λMφ‖/‖λMφ‖ of each pair, given Mφ; 0 for rigid pairs (λ
-/// below 10⁻⁶ of the largest, or below 1 Hz: a set of rigid pairs alone, as a stiff object
-/// below a cutoff gives, has no elastic λ to compare with), NaN for a pair that is not finite.
+/// λ under which a pair of the set `lambdas` counts as rigid: 10⁻⁶ of the largest, or 1 Hz (a
+/// set of rigid pairs alone, as a stiff object below a cutoff gives, has no elastic λ to
+/// compare with).
+fn rigid_below(lambdas: &[f64]) -> f64 {
+    let lam_max = lambdas.iter().cloned().fold(0.0, f64::max);
+    (1e-6 * lam_max).max(units::freq_hz_to_lambda(1.0))
+}
+
+/// Columns of the wanted eigenvectors formed and checked at once in block Lanczos' final
+/// check.
+const CHECK_CHUNK: usize = 64;
+
+/// The relative residual ‖Kφ − λMφ‖/‖λMφ‖ of each pair, given Mφ; 0 for rigid pairs (λ at or
+/// below `rigid_below`, see [`rigid_below`]), NaN for a pair that is not finite.
 fn residuals_each(
     k: SparseColMatRef<'_, usize, f64>,
     lambdas: &[f64],
     phi: MatRef<'_, f64>,
     mphi: MatRef<'_, f64>,
+    rigid_below: f64,
 ) -> Vec<f64> {
-    let lam_max = lambdas.iter().cloned().fold(0.0, f64::max);
-    let rigid_below = (1e-6 * lam_max).max(units::freq_hz_to_lambda(1.0));
     let sel: Vec<usize> = (0..lambdas.len())
         .filter(|&c| lambdas[c] > rigid_below)
         .collect();
@@ -533,78 +539,65 @@ pub fn solve_generalized(
                         tol: ritz_tol,
                         seed: 0x5EED,
                     };
-                    // Keep L⁻ᵀQ_j per block, side by side: the eigenvectors are then (L⁻ᵀQ)S, one
-                    // GEMM and no extra solve.
-                    // Reserved once, touched a block at a time (as Lanczos' own basis).
-                    let capacity = bp.max_dim + bp.block;
-                    let kept: std::cell::RefCell<(Mat<f64>, usize)> =
-                        std::cell::RefCell::new((Mat::<f64>::with_capacity(n, capacity), 0));
-                    let ltq_times = |s: MatRef<'_, f64>| {
-                        let kept = kept.borrow();
-                        let rows = s.nrows().min(kept.1);
-                        kept.0.as_ref().subcols(0, rows) * s.subrows(0, rows)
-                    };
-                    let mut apply = |x: MatRef<'_, f64>| {
-                        let (w, lt) = op.apply_block(x, par);
-                        let mut kept = kept.borrow_mut();
-                        let (store, used) = &mut *kept;
-                        let cols = lt.ncols().min(capacity - *used);
-                        store.resize_with(n, *used + cols, |_, _| 0.0);
-                        store
-                            .as_mut()
-                            .subcols_mut(*used, cols)
-                            .copy_from(lt.as_ref().subcols(0, cols));
-                        *used += cols;
-                        w
-                    };
+                    let mut apply = |x: MatRef<'_, f64>| op.apply_block(x, par);
                     // Stop as soon as the highest wanted pairs (the slowest to converge) pass the
                     // true residual test with a margin; the final check covers all of them.
                     // Then (without a cutoff) every wanted pair is checked, and the checked,
                     // M-normalized pairs are the result: the check is the final one.
+                    // Eigenvectors are formed as L⁻ᵀ(QS), a few columns at a time, so the
+                    // check holds no second basis-sized matrix at the solve's peak of memory.
                     let want = wanted;
                     let full_check = params.until_lambda.is_none();
                     let next_full = std::cell::Cell::new(0usize);
-                    let mut accept = |theta: &[f64], s: MatRef<'_, f64>| {
+                    let mut accept = |theta: &[f64], s: MatRef<'_, f64>, q: MatRef<'_, f64>| {
                         // The 32 highest wanted pairs first (the slowest to converge).
                         if s.nrows() < next_full.get() {
                             return false;
                         }
+                        let lam: Vec<f64> = (0..want).map(|c| sigma + 1.0 / theta[c]).collect();
+                        let rigid = rigid_below(&lam);
                         let lo = want.saturating_sub(32);
-                        let cols: Vec<usize> = (lo..want).collect();
-                        let sub =
-                            Mat::<f64>::from_fn(s.nrows(), cols.len(), |i, c| s[(i, cols[c])]);
-                        let phi = op.unpermute(ltq_times(sub.as_ref()));
-                        let lam: Vec<f64> = cols.iter().map(|&c| sigma + 1.0 / theta[c]).collect();
-                        if !(residuals(k, m, &lam, phi.as_ref()) <= margin * params.tolerance) {
+                        let phi = op.to_phi(q * s.subcols(lo, want - lo), par);
+                        let mphi = sym_matmul(m, phi.as_ref());
+                        let res =
+                            residuals_with_m(k, &lam[lo..], phi.as_ref(), mphi.as_ref(), rigid);
+                        if !(res <= margin * params.tolerance) {
                             return false;
                         }
                         if !full_check {
                             return true;
                         }
                         // After a failed full check, checks wait for 15 % more dimension
-                        // (each costs a K and an M product of every wanted vector).
+                        // (each costs a solve, a K and an M product of every wanted vector).
                         next_full.set(s.nrows() + s.nrows().div_ceil(7));
-                        let lam: Vec<f64> = (0..want).map(|c| sigma + 1.0 / theta[c]).collect();
-                        let mut phi = op.unpermute(ltq_times(s.subcols(0, want)));
-                        let Some(mphi) = m_normalize(m, &mut phi) else {
-                            return false;
-                        };
-                        let res = residuals_with_m(k, &lam, phi.as_ref(), mphi.as_ref());
-                        if res <= params.tolerance {
-                            *checked.borrow_mut() = Some((lam, phi, res));
-                            true
-                        } else {
-                            false
+                        let mut phi = Mat::<f64>::with_capacity(n, want);
+                        let mut worst = 0.0f64;
+                        for lo in (0..want).step_by(CHECK_CHUNK) {
+                            let cols = CHECK_CHUNK.min(want - lo);
+                            let mut part = op.to_phi(q * s.subcols(lo, cols), par);
+                            let Some(mpart) = m_normalize(m, &mut part) else {
+                                return false;
+                            };
+                            let lam = &lam[lo..lo + cols];
+                            let r = residuals_with_m(k, lam, part.as_ref(), mpart.as_ref(), rigid);
+                            // Not `max`: a NaN residual must fail the check.
+                            if !(r <= params.tolerance) {
+                                return false;
+                            }
+                            worst = worst.max(r);
+                            phi.resize_with(n, lo + cols, |_, _| 0.0);
+                            phi.as_mut().subcols_mut(lo, cols).copy_from(&part);
                         }
+                        *checked.borrow_mut() = Some((lam, phi, worst));
+                        true
                     };
-                    let (theta, s, bi) =
+                    let (theta, y, bi) =
                         crate::block_lanczos::block_lanczos(n, &mut apply, &mut accept, &bp);
                     if let Some((lam, phi, res)) = checked.borrow_mut().take() {
                         info.converged = bi.converged;
                         break 'attempt (lam, phi, want, nev, res);
                     }
-                    let ltq_s = ltq_times(s.as_ref());
-                    (ltq_s, theta, bi.converged)
+                    (y, theta, bi.converged)
                 }
             };
             info.converged = converged;
@@ -632,11 +625,13 @@ pub fn solve_generalized(
             }
         };
         let lambdas: Vec<f64> = order.iter().map(|&i| sigma + 1.0 / theta[i]).collect();
-        let ysorted = Mat::<f64>::from_fn(n, nev, |r, c| y[(r, order[c])]);
-        let mut phi = match params.method {
-            EigenMethod::Lanczos => op.back_transform(ysorted.as_ref(), par),
-            EigenMethod::BlockLanczos => op.unpermute(ysorted),
+        // Block Lanczos returns its pairs sorted already: no reordered copy then.
+        let ysorted = if order.iter().enumerate().all(|(i, &o)| i == o) {
+            y
+        } else {
+            Mat::<f64>::from_fn(n, nev, |r, c| y[(r, order[c])])
         };
+        let mut phi = op.to_phi(ysorted, par);
         let Some(mphi) = m_normalize(m, &mut phi) else {
             return Err(ModalError::NoConvergence {
                 converged: info.converged,
@@ -645,7 +640,9 @@ pub fn solve_generalized(
                 tolerance: params.tolerance,
             });
         };
-        let mut max_res = residuals_with_m(k, &lambdas[..wanted], phi.as_ref(), mphi.as_ref());
+        let rigid = rigid_below(&lambdas[..wanted]);
+        let mut max_res =
+            residuals_with_m(k, &lambdas[..wanted], phi.as_ref(), mphi.as_ref(), rigid);
         let last_try = wide || params.method != EigenMethod::BlockLanczos;
         if !(max_res <= params.tolerance) && params.until_lambda.is_none() && last_try {
             // A count of modes (no cutoff) whose lowest three quarters or more passed after
@@ -657,7 +654,7 @@ pub fn solve_generalized(
             // Pairs within ten times the tolerance are kept too, counted: a relative residual
             // ρ moves λ by about ρ²λ/gap, far below what anyone hears (the same bar's pairs
             // stall at 1.0–2.3e-3 scattered over 230–270 kHz).
-            let each = residuals_each(k, &lambdas[..wanted], phi.as_ref(), mphi.as_ref());
+            let each = residuals_each(k, &lambdas[..wanted], phi.as_ref(), mphi.as_ref(), rigid);
             let loose = LOOSE_FACTOR * params.tolerance;
             let prefix = each.iter().position(|r| !(*r <= loose)).unwrap_or(wanted);
             if prefix >= 3 * wanted / 4 && prefix > 0 {

@@ -29,62 +29,51 @@ impl ShiftInvert<'_> {
         self.symbolic.solve_in_place_scratch::<f64>(k, par)
     }
 
-    /// φ (original ordering) = Pᵀ L⁻ᵀ y, in place on a copy.
-    pub(super) fn back_transform(&self, y: MatRef<'_, f64>, par: Par) -> Mat<f64> {
-        let n = y.nrows();
-        let mut w = y.to_owned();
-        let mut buf = MemBuffer::new(self.scratch(w.ncols(), par));
-        self.llt()
-            .l_transpose_solve_with_conj(Conj::No, w.as_mut(), par, MemStack::new(&mut buf));
-        let mut out = Mat::<f64>::zeros(n, y.ncols());
-        for c in 0..y.ncols() {
-            for i in 0..n {
-                out[(self.fwd[i], c)] = w[(i, c)];
-            }
+    /// φ (original ordering) = Pᵀ L⁻ᵀ y, in place: eigenvectors from Ritz vectors y of the
+    /// operator without a second n × k matrix.
+    pub(super) fn to_phi(&self, mut y: Mat<f64>, par: Par) -> Mat<f64> {
+        self.solve_split(y.as_mut(), false, par);
+        self.unpermute(y)
+    }
+
+    /// L⁻¹W (`lower`) or L⁻ᵀW in place, the columns split into one part per thread, each solved
+    /// sequentially: faer's parallel solve splits every small supernode across threads, and
+    /// the wake-ups cost more than they save.
+    fn solve_split(&self, w: MatMut<'_, f64>, lower: bool, par: Par) {
+        let threads = match par {
+            Par::Seq => 1,
+            _ => rayon::current_num_threads().max(1),
+        };
+        let chunk = w.ncols().div_ceil(threads).max(1);
+        let mut parts: Vec<MatMut<'_, f64>> = Vec::new();
+        let mut rest = w;
+        while rest.ncols() > 0 {
+            let take = chunk.min(rest.ncols());
+            let (a, b) = rest.split_at_col_mut(take);
+            parts.push(a);
+            rest = b;
         }
-        out
+        use rayon::prelude::*;
+        parts.into_par_iter().for_each(|mut p| {
+            let mut buf = MemBuffer::new(self.scratch(p.ncols(), Par::Seq));
+            let stack = MemStack::new(&mut buf);
+            if lower {
+                self.llt()
+                    .l_solve_with_conj(Conj::No, p.rb_mut(), Par::Seq, stack);
+            } else {
+                self.llt()
+                    .l_transpose_solve_with_conj(Conj::No, p.rb_mut(), Par::Seq, stack);
+            }
+        });
     }
 }
 
 impl ShiftInvert<'_> {
     /// L⁻¹ P M Pᵀ L⁻ᵀ X for a block X (permuted ordering).
-    /// Also returns L⁻ᵀX (permuted ordering), from which eigenvectors are formed without
-    /// another solve.
-    pub(super) fn apply_block(&self, x: MatRef<'_, f64>, par: Par) -> (Mat<f64>, Mat<f64>) {
+    pub(super) fn apply_block(&self, x: MatRef<'_, f64>, par: Par) -> Mat<f64> {
         let n = self.fwd.len();
         let mut w = x.to_owned();
-        // Column halves solved sequentially on separate threads: faer's parallel solve splits
-        // every small supernode across threads, and the wake-ups cost more than they save.
-        let split = |w: &mut Mat<f64>, lower: bool| {
-            let threads = match par {
-                Par::Seq => 1,
-                _ => rayon::current_num_threads().max(1),
-            };
-            let nc = w.ncols();
-            let chunk = nc.div_ceil(threads).max(1);
-            let mut parts: Vec<MatMut<'_, f64>> = Vec::new();
-            let mut rest = w.as_mut();
-            while rest.ncols() > 0 {
-                let take = chunk.min(rest.ncols());
-                let (a, b) = rest.split_at_col_mut(take);
-                parts.push(a);
-                rest = b;
-            }
-            use rayon::prelude::*;
-            parts.into_par_iter().for_each(|mut p| {
-                let mut buf = MemBuffer::new(self.scratch(p.ncols(), Par::Seq));
-                let stack = MemStack::new(&mut buf);
-                if lower {
-                    self.llt()
-                        .l_solve_with_conj(Conj::No, p.rb_mut(), Par::Seq, stack);
-                } else {
-                    self.llt()
-                        .l_transpose_solve_with_conj(Conj::No, p.rb_mut(), Par::Seq, stack);
-                }
-            });
-        };
-        split(&mut w, false);
-        let lt = w.clone();
+        self.solve_split(w.as_mut(), false, par);
         let mut u = Mat::<f64>::zeros(n, w.ncols());
         for c in 0..w.ncols() {
             for i in 0..n {
@@ -97,15 +86,15 @@ impl ShiftInvert<'_> {
                 w[(i, c)] = v[(self.fwd[i], c)];
             }
         }
-        split(&mut w, true);
+        self.solve_split(w.as_mut(), true, par);
         let a = self.count.fetch_add(x.ncols(), Ordering::Relaxed) + x.ncols();
         (self.progress)(Progress::count(Stage::Lanczos, a as u64));
-        (w, lt)
+        w
     }
 
-    /// φ (original ordering) from L⁻ᵀy already in the permuted ordering, in place: a column
-    /// at a time through one column of scratch, so no second n × k matrix is held.
-    pub(super) fn unpermute(&self, mut w: Mat<f64>) -> Mat<f64> {
+    /// Permuted ordering → original ordering, in place: a column at a time through one column
+    /// of scratch, so no second n × k matrix is held.
+    fn unpermute(&self, mut w: Mat<f64>) -> Mat<f64> {
         let mut column = vec![0.0; w.nrows()];
         for c in 0..w.ncols() {
             for (i, v) in column.iter_mut().enumerate() {
