@@ -265,7 +265,11 @@ mod tests {
             for i in 0..q.ncols() {
                 for j in 0..q.ncols() {
                     let e = if i == j { 1.0 } else { 0.0 };
-                    assert!((g[(i, j)] - e).abs() < 1e-10, "QᵀQ[{i},{j}] = {}", g[(i, j)]);
+                    assert!(
+                        (g[(i, j)] - e).abs() < 1e-10,
+                        "QᵀQ[{i},{j}] = {}",
+                        g[(i, j)]
+                    );
                 }
             }
             seen = Some(q * s);
