@@ -107,6 +107,9 @@ fn next_block(q: MatRef<'_, f64>, w: Mat<f64>, tiny: f64, state: &mut u64) -> (M
     (qn, r)
 }
 
+/// `accept(θ, S, Q)` of [`block_lanczos`]: the Ritz values, their coefficients and the basis.
+pub type AcceptFn<'a> = dyn FnMut(&[f64], MatRef<'_, f64>, MatRef<'_, f64>) -> bool + 'a;
+
 /// The `nev` largest eigenpairs of the symmetric operator `apply` (n × n): θ descending and the
 /// orthonormal Ritz vectors Y = Q S (n × nev), where Q holds the block inputs passed to `apply`.
 /// Returns the best available pairs after `max_dim` when fewer than `nev` converged.
@@ -118,7 +121,7 @@ fn next_block(q: MatRef<'_, f64>, w: Mat<f64>, tiny: f64, state: &mut u64) -> (M
 pub fn block_lanczos(
     n: usize,
     apply: &mut dyn FnMut(MatRef<'_, f64>) -> Mat<f64>,
-    accept: &mut dyn FnMut(&[f64], MatRef<'_, f64>, MatRef<'_, f64>) -> bool,
+    accept: &mut AcceptFn<'_>,
     p: &BlockLanczosParams,
 ) -> (Vec<f64>, Mat<f64>, BlockLanczosInfo) {
     let b = p.block.clamp(1, n.max(1));
