@@ -13,10 +13,10 @@ pub struct CompareArgs {
     pub a: PathBuf,
     /// The sound to compare with it (resampled to the reference's rate if needed).
     pub b: PathBuf,
-    /// Channel of A (0-based; default: the mix).
+    /// Channel of A (1 = the first, as in `analyze --channel`; default: the mix).
     #[arg(long, value_name = "K")]
     pub channel_a: Option<usize>,
-    /// Channel of B (0-based; default: the mix).
+    /// Channel of B (1 = the first; default: the mix).
     #[arg(long, value_name = "K")]
     pub channel_b: Option<usize>,
     /// Longest stretch compared after the onsets, s.
@@ -38,6 +38,10 @@ pub fn run(a: CompareArgs) -> Result<()> {
         floor_db: a.floor_db,
         ..LogMelParams::default()
     };
-    let d = compare_files(&a.a, a.channel_a, &a.b, a.channel_b, &params)?;
+    let (channel_a, channel_b) = (
+        resound::recording::index_from_1("channel", a.channel_a)?,
+        resound::recording::index_from_1("channel", a.channel_b)?,
+    );
+    let d = compare_files(&a.a, channel_a, &a.b, channel_b, &params)?;
     crate::util::show(a.json, &d)
 }

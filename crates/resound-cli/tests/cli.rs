@@ -2160,6 +2160,36 @@ fn estimate_combines_microphones_and_files_into_one_material() {
         d,
     );
     assert!(!out.status.success());
+    // `compare` counts channels as `analyze` does: from 1.
+    let same = |a: &str, b: &str| -> f64 {
+        let out = ok(&resound(
+            &[
+                "compare",
+                "stereo.wav",
+                "stereo.wav",
+                "--channel-a",
+                a,
+                "--channel-b",
+                b,
+                "--json",
+            ],
+            d,
+        ));
+        let v: Value = serde_json::from_str(&out).unwrap();
+        v["distance"].as_f64().unwrap()
+    };
+    let (first, second) = (same("1", "1"), same("1", "2"));
+    assert!(first < 1e-9, "channel 1 against itself: {first}");
+    assert!(second > first, "channel 1 against channel 2: {second}");
+    for (flag, k, needle) in [
+        ("--channel-a", "0", "count from 1"),
+        ("--channel-b", "3", "channels count from 1"),
+    ] {
+        fails_with(
+            &resound(&["compare", "stereo.wav", "other.wav", flag, k], d),
+            needle,
+        );
+    }
 }
 
 #[test]

@@ -107,16 +107,28 @@ fn next_block(q: MatRef<'_, f64>, w: Mat<f64>, tiny: f64, state: &mut u64) -> (M
     (qn, r)
 }
 
+/// What `accept` of [`block_lanczos`] says of the pairs it was shown.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// Not good enough yet: grow the space.
+    Reject,
+    /// Good: stop and return the Ritz vectors Q S.
+    Accept,
+    /// Good, and the caller has kept what it needs from Q S (e.g. its transform): stop
+    /// without forming Q S, which would sit beside the basis at the peak of memory.
+    Kept,
+}
+
 /// `accept(θ, S, Q)` of [`block_lanczos`]: the Ritz values, their coefficients and the basis.
-pub type AcceptFn<'a> = dyn FnMut(&[f64], MatRef<'_, f64>, MatRef<'_, f64>) -> bool + 'a;
+pub type AcceptFn<'a> = dyn FnMut(&[f64], MatRef<'_, f64>, MatRef<'_, f64>) -> Verdict + 'a;
 
 /// The `nev` largest eigenpairs of the symmetric operator `apply` (n × n): θ descending and the
 /// orthonormal Ritz vectors Y = Q S (n × nev), where Q holds the block inputs passed to `apply`.
 /// Returns the best available pairs after `max_dim` when fewer than `nev` converged.
 ///
 /// `accept(θ, S, Q)` is asked, at each convergence check where every wanted Ritz estimate meets
-/// `tol`, whether the pairs are good enough (e.g. by their true residuals, from Q S); `true`
-/// stops. Callers that need a transform of the Ritz vectors (shift-invert's L⁻ᵀ) apply it to
+/// `tol`, whether the pairs are good enough (e.g. by their true residuals, from Q S); a
+/// [`Verdict`] other than `Reject` stops (after `Kept`, Y has no columns). Callers that need a transform of the Ritz vectors (shift-invert's L⁻ᵀ) apply it to
 /// Q S: keeping the transform of every input instead would double the memory of the basis.
 pub fn block_lanczos(
     n: usize,
@@ -143,7 +155,7 @@ pub fn block_lanczos(
         block_applications: 0,
         converged: 0,
     };
-    let mut result: Option<(Vec<f64>, Mat<f64>)> = None;
+    let mut result: Option<(Vec<f64>, Mat<f64>, Verdict)> = None;
     while k + b <= max_dim {
         let qj = q.as_ref().subcols(k, b).to_owned();
         let mut w = apply(qj.as_ref());
@@ -218,9 +230,13 @@ pub fn block_lanczos(
             if conv >= need || last {
                 let sel = Mat::<f64>::from_fn(k, nev, |i, c| s[(i, order[c])]);
                 let th: Vec<f64> = order.iter().take(nev).map(|&i| theta[i]).collect();
-                let ok = last || accept(&th, sel.as_ref(), q.as_ref().subcols(0, k));
-                if ok {
-                    result = Some((th, sel));
+                let verdict = if last {
+                    Verdict::Accept
+                } else {
+                    accept(&th, sel.as_ref(), q.as_ref().subcols(0, k))
+                };
+                if verdict != Verdict::Reject {
+                    result = Some((th, sel, verdict));
                     break;
                 }
             }
@@ -230,7 +246,8 @@ pub fn block_lanczos(
     }
     info.dim = k;
     let (theta, y) = match result {
-        Some((th, sel)) => {
+        Some((th, _, Verdict::Kept)) => (th, Mat::<f64>::zeros(n, 0)),
+        Some((th, sel, _)) => {
             let y = q.as_ref().subcols(0, sel.nrows()) * &sel;
             (th, y)
         }
@@ -276,11 +293,17 @@ mod tests {
                 }
             }
             seen = Some(q * s);
-            true
+            Verdict::Accept
         };
         let (theta, y, info) = block_lanczos(n, &mut apply, &mut accept, &p);
         let seen = seen.expect("accept was asked");
         assert!((&seen - &y).norm_max() < 1e-14);
+        // A caller that kept what it needs stops the run the same way, without Q S.
+        let (kept_theta, kept_y, kept_info) =
+            block_lanczos(n, &mut apply, &mut |_, _, _| Verdict::Kept, &p);
+        assert_eq!(kept_y.ncols(), 0);
+        assert_eq!(kept_theta, theta);
+        assert_eq!(kept_info.dim, info.dim);
         assert_eq!(info.converged, 12, "{info:?}");
         let mut want: Vec<f64> = d.clone();
         want.sort_by(|a, b| b.total_cmp(a));

@@ -550,9 +550,10 @@ pub fn solve_generalized(
                     let full_check = params.until_lambda.is_none();
                     let next_full = std::cell::Cell::new(0usize);
                     let mut accept = |theta: &[f64], s: MatRef<'_, f64>, q: MatRef<'_, f64>| {
+                        use crate::block_lanczos::Verdict;
                         // The 32 highest wanted pairs first (the slowest to converge).
                         if s.nrows() < next_full.get() {
-                            return false;
+                            return Verdict::Reject;
                         }
                         let lam: Vec<f64> = (0..want).map(|c| sigma + 1.0 / theta[c]).collect();
                         let rigid = rigid_below(&lam);
@@ -562,10 +563,10 @@ pub fn solve_generalized(
                         let res =
                             residuals_with_m(k, &lam[lo..], phi.as_ref(), mphi.as_ref(), rigid);
                         if !(res <= margin * params.tolerance) {
-                            return false;
+                            return Verdict::Reject;
                         }
                         if !full_check {
-                            return true;
+                            return Verdict::Accept;
                         }
                         // After a failed full check, checks wait for 15 % more dimension
                         // (each costs a solve, a K and an M product of every wanted vector).
@@ -576,20 +577,21 @@ pub fn solve_generalized(
                             let cols = CHECK_CHUNK.min(want - lo);
                             let mut part = op.to_phi(q * s.subcols(lo, cols), par);
                             let Some(mpart) = m_normalize(m, &mut part) else {
-                                return false;
+                                return Verdict::Reject;
                             };
                             let lam = &lam[lo..lo + cols];
                             let r = residuals_with_m(k, lam, part.as_ref(), mpart.as_ref(), rigid);
                             // Not `max`: a NaN residual must fail the check.
                             if !(r <= params.tolerance) {
-                                return false;
+                                return Verdict::Reject;
                             }
                             worst = worst.max(r);
                             phi.resize_with(n, lo + cols, |_, _| 0.0);
                             phi.as_mut().subcols_mut(lo, cols).copy_from(&part);
                         }
                         *checked.borrow_mut() = Some((lam, phi, worst));
-                        true
+                        // The checked eigenvectors are the result: no Q S beside the basis.
+                        Verdict::Kept
                     };
                     let (theta, y, bi) =
                         crate::block_lanczos::block_lanczos(n, &mut apply, &mut accept, &bp);
