@@ -128,8 +128,9 @@ pub type AcceptFn<'a> = dyn FnMut(&[f64], MatRef<'_, f64>, MatRef<'_, f64>) -> V
 ///
 /// `accept(θ, S, Q)` is asked, at each convergence check where every wanted Ritz estimate meets
 /// `tol`, whether the pairs are good enough (e.g. by their true residuals, from Q S); a
-/// [`Verdict`] other than `Reject` stops (after `Kept`, Y has no columns). Callers that need a transform of the Ritz vectors (shift-invert's L⁻ᵀ) apply it to
-/// Q S: keeping the transform of every input instead would double the memory of the basis.
+/// [`Verdict`] other than `Reject` stops (after `Kept`, Y has no columns). Callers that need a
+/// transform of the Ritz vectors (shift-invert's L⁻ᵀ) apply it to Q S: keeping the transform
+/// of every input instead would double the memory of the basis.
 pub fn block_lanczos(
     n: usize,
     apply: &mut dyn FnMut(MatRef<'_, f64>) -> Mat<f64>,
