@@ -137,14 +137,27 @@ impl std::fmt::Display for EstimateInfo {
         let pm = |s: Option<f64>, unit: &str| {
             s.map_or("unknown".to_string(), |s| format!("± {s:.2e} {unit}"))
         };
+        // With no mode paired there is no error to take a median of, and no loudness share.
+        let error = if fit.paired_modes > 0 && fit.median_freq_error.is_finite() {
+            format!(
+                "median frequency error {:.2} %",
+                100.0 * fit.median_freq_error
+            )
+        } else {
+            "no frequency error: none paired".to_string()
+        };
         writeln!(
             f,
-            "fit: {} of {} recorded modes paired (median frequency error {:.2} %), {:.0} % of \
-             the recording's loudness; alpha {}, beta {}, gamma {}",
+            "fit: {} of {} recorded modes paired ({error}), {:.0} % of the recording's \
+             loudness; alpha {}, beta {}, gamma {}",
             fit.paired_modes,
             fit.recorded_modes,
-            100.0 * fit.median_freq_error,
-            100.0 * fit.loudness_share,
+            // (-0 % printed when nothing was paired.)
+            if fit.loudness_share > 0.0 {
+                100.0 * fit.loudness_share
+            } else {
+                0.0
+            },
             pm(fit.alpha_sigma, "1/s"),
             pm(fit.beta_sigma, "s"),
             pm(fit.gamma_sigma, "m²/s²")
@@ -159,15 +172,24 @@ impl std::fmt::Display for EstimateInfo {
         } else {
             String::new()
         };
-        writeln!(
-            f,
-            "{n} recordings combined{of}; their own estimates spread by alpha {:.1} %, beta \
-             {:.1} %, gamma {:.1} % (relative SD; the combined value's standard error is that \
-             over √{n})",
-            100.0 * sp.alpha_rel_sd,
-            100.0 * sp.beta_rel_sd,
-            100.0 * sp.gamma_rel_sd,
-        )?;
+        if n < 2 {
+            // One take left: no spread to report (a standard deviation of one value is NaN).
+            writeln!(
+                f,
+                "{n} recording combined{of}; one take cannot show a spread: its estimate is the \
+                 combined one"
+            )?;
+        } else {
+            writeln!(
+                f,
+                "{n} recordings combined{of}; their own estimates spread by alpha {:.1} %, beta \
+                 {:.1} %, gamma {:.1} % (relative SD; the combined value's standard error is \
+                 that over √{n})",
+                100.0 * sp.alpha_rel_sd,
+                100.0 * sp.beta_rel_sd,
+                100.0 * sp.gamma_rel_sd,
+            )?;
+        }
         for t in &self.takes {
             if t.left_out {
                 writeln!(f, "  {}: left out (nothing above its floor)", t.label)?;
