@@ -63,7 +63,7 @@ impl Default for JointParams {
     fn default() -> Self {
         Self {
             sweeps: 2,
-            max_iterations: 30,
+            max_iterations: 60,
             max_cluster: 4,
             min_energy_snr: 40.0,
             disagree_sigmas: 3.0,
