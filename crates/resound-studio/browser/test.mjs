@@ -178,8 +178,17 @@ try {
   await page.locator("#hit").dispatchEvent("change");
 
   // 4. Estimate, then save under a name; saving again is refused until "replace" is ticked.
+  // The bar stands in for the recording's ramp: the fit is refused as not credible until
+  // "keep a fit that is not credible" is ticked, then kept with its warning on the status line.
+  await page.click("#estimate");
+  await page.waitForFunction(() => /the estimate is not credible/.test(document.getElementById("status").textContent), null, { timeout: 600000 });
+  assert.equal(await page.locator("#status").getAttribute("class"), "error");
+  assert.match(await page.locator("#status").textContent(), /tick "keep a fit that is not credible"/);
+  step("an estimate with a stand-in mesh: refused as not credible, with how to keep it");
+  await page.check("#keep-implausible");
   await page.click("#estimate");
   await waitStatus(/^estimated in/);
+  assert.equal(await page.locator("#status").getAttribute("class"), "warn");
   assert.match(await page.locator("#estimate-report").textContent(), /gamma/);
   await page.waitForFunction(() => document.getElementById("estimate-plot").naturalWidth > 0);
   await page.fill("#save-name", "studio-ramp");

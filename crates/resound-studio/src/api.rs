@@ -690,6 +690,9 @@ struct EstimateBody {
     recording: u64,
     object: u64,
     hit_m: [f64; 3],
+    /// Keep a fit that is not credible (as `--allow-implausible`); refused otherwise.
+    #[serde(default)]
+    allow_implausible: bool,
 }
 
 #[derive(Serialize)]
@@ -729,10 +732,17 @@ async fn estimate(
                     .map_or(rec.name.as_str(), |p| p.0)
                     .to_string(),
                 recording_name: rec.name.clone(),
+                allow_implausible: b.allow_implausible,
                 ..Default::default()
             },
         };
-        let out = resound::material::estimate_files(&job, progress).map_err(|e| error_text(&e))?;
+        let out = resound::material::estimate_files(&job, progress).map_err(|e| match e {
+            resound::Error::Implausible(..) => format!(
+                "{}; tick \"keep a fit that is not credible\" to keep it",
+                error_text(&e)
+            ),
+            _ => error_text(&e),
+        })?;
         let id = s.next_id();
         let view = EstimateView {
             estimate: id,

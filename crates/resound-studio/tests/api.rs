@@ -547,6 +547,8 @@ async fn solve_estimate_save_and_render_round_trip() {
     )
     .await;
     assert_eq!(r.status, StatusCode::NOT_FOUND);
+    // The demo's bar stands in for the recording's ramp: few of the recorded modes pair with
+    // its modes, so the fit is refused as not credible, with how to keep it…
     let start = post(
         &s,
         "/api/estimate",
@@ -554,7 +556,23 @@ async fn solve_estimate_save_and_render_round_trip() {
     )
     .await;
     let st = finish(&s, &start).await;
+    assert_eq!(st["state"], "failed", "{st}");
+    let why = st["error"].as_str().unwrap();
+    assert!(
+        why.contains("not credible") && why.contains("keep a fit that is not credible"),
+        "{why}"
+    );
+    // …and kept, with its warnings, when asked for.
+    let start = post(
+        &s,
+        "/api/estimate",
+        json!({"recording": rec_id, "object": obj, "hit_m": hit, "allow_implausible": true}),
+    )
+    .await;
+    let st = finish(&s, &start).await;
     assert_eq!(st["state"], "done", "{st}");
+    let warned = st["result"]["info"]["warnings"].as_array().unwrap();
+    assert!(warned.iter().any(|w| w["kind"] == "implausible"), "{st}");
     let est = st["result"]["estimate"].as_u64().unwrap();
     let gamma = st["result"]["material"]["gamma"].as_f64().unwrap();
     assert!(gamma.is_finite() && gamma > 0.0);

@@ -474,7 +474,12 @@ async function estimate() {
   $("estimate").disabled = true;
   say("estimating the material…");
   try {
-    const start = await post("/api/estimate", { recording: state.recording.id, object: state.object.id, hit_m: state.hit });
+    const start = await post("/api/estimate", {
+      recording: state.recording.id,
+      object: state.object.id,
+      hit_m: state.hit,
+      allow_implausible: $("keep-implausible").checked,
+    });
     const done = await runJob(start, "estimate-job");
     const r = done.result;
     state.estimate = r;
