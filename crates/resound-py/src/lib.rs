@@ -104,10 +104,12 @@ fn analyze_params(
     strike: Option<usize>,
     max_modes: usize,
     min_db: f64,
+    highpass_hz: Option<f64>,
 ) -> PyResult<resound::signal::AnalyzeParams> {
     Ok(resound::signal::AnalyzeParams {
         max_modes,
         min_db,
+        highpass_hz,
         strike: resound::recording::index_from_1("strike", strike).map_err(err)?,
         ..Default::default()
     })
@@ -115,7 +117,7 @@ fn analyze_params(
 
 /// Analyses a recording file: (modes (n, 4), report dict).
 #[pyfunction]
-#[pyo3(signature = (path, channel=None, strike=None, resample_hz=None, max_modes=64, min_db=60.0))]
+#[pyo3(signature = (path, channel=None, strike=None, resample_hz=None, max_modes=64, min_db=60.0, highpass_hz=None))]
 fn analyze_file<'py>(
     py: Python<'py>,
     path: PathBuf,
@@ -124,8 +126,9 @@ fn analyze_file<'py>(
     resample_hz: Option<u32>,
     max_modes: usize,
     min_db: f64,
+    highpass_hz: Option<f64>,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyAny>)> {
-    let params = analyze_params(strike, max_modes, min_db)?;
+    let params = analyze_params(strike, max_modes, min_db, highpass_hz)?;
     let rec = resound::recording::RecordingParams {
         channel: resound::recording::index_from_1("channel", channel).map_err(err)?,
         resample_hz,
@@ -144,7 +147,7 @@ fn analyze_file<'py>(
 /// Fits one set of poles shared by the takes of several files (their channels and strikes with
 /// `every_channel` / `every_strike`): the joint report dict (`analyze --joint --json`).
 #[pyfunction]
-#[pyo3(signature = (paths, channel=None, strike=None, every_channel=false, every_strike=false, resample_hz=None, max_modes=64, min_db=60.0))]
+#[pyo3(signature = (paths, channel=None, strike=None, every_channel=false, every_strike=false, resample_hz=None, max_modes=64, min_db=60.0, highpass_hz=None))]
 #[allow(clippy::too_many_arguments)]
 fn analyze_joint<'py>(
     py: Python<'py>,
@@ -156,8 +159,9 @@ fn analyze_joint<'py>(
     resample_hz: Option<u32>,
     max_modes: usize,
     min_db: f64,
+    highpass_hz: Option<f64>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let params = analyze_params(strike, max_modes, min_db)?;
+    let params = analyze_params(strike, max_modes, min_db, highpass_hz)?;
     let rec = resound::recording::RecordingParams {
         channel: resound::recording::index_from_1("channel", channel).map_err(err)?,
         resample_hz,
@@ -184,7 +188,7 @@ fn analyze_joint<'py>(
 
 /// Analyses samples (float64, one channel, full scale 1): (modes (n, 4), report dict).
 #[pyfunction]
-#[pyo3(signature = (samples, sample_rate, strike=None, max_modes=64, min_db=60.0))]
+#[pyo3(signature = (samples, sample_rate, strike=None, max_modes=64, min_db=60.0, highpass_hz=None))]
 fn analyze_array<'py>(
     py: Python<'py>,
     samples: PyReadonlyArray1<'py, f64>,
@@ -192,8 +196,9 @@ fn analyze_array<'py>(
     strike: Option<usize>,
     max_modes: usize,
     min_db: f64,
+    highpass_hz: Option<f64>,
 ) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyAny>)> {
-    let params = analyze_params(strike, max_modes, min_db)?;
+    let params = analyze_params(strike, max_modes, min_db, highpass_hz)?;
     let x = samples.as_slice().map_err(err)?;
     let report = py
         .detach(|| {
@@ -207,7 +212,7 @@ fn analyze_array<'py>(
 /// Estimates a material from a recording (file, or float64 samples with `sample_rate`) of
 /// `model` struck at `hit`: (material, report dict).
 #[pyfunction]
-#[pyo3(signature = (model, hit, path=None, samples=None, sample_rate=None, channel=None, strike=None, name="estimated", residual=true, allow_implausible=false, mic=None))]
+#[pyo3(signature = (model, hit, path=None, samples=None, sample_rate=None, channel=None, strike=None, name="estimated", residual=true, allow_implausible=false, mic=None, highpass_hz=None))]
 fn estimate_material<'py>(
     py: Python<'py>,
     model: &ModalModel,
@@ -221,8 +226,9 @@ fn estimate_material<'py>(
     residual: bool,
     allow_implausible: bool,
     mic: Option<[f64; 3]>,
+    highpass_hz: Option<f64>,
 ) -> PyResult<(PyMaterial, Bound<'py, PyAny>)> {
-    let ap = analyze_params(strike, 64, 60.0)?;
+    let ap = analyze_params(strike, 64, 60.0, highpass_hz)?;
     let params = resound::material::EstimateMaterialParams {
         name: name.to_string(),
         residual,

@@ -110,6 +110,16 @@ def test_analyze_reports_are_one_document(tmp_path):
     assert np.allclose([r["freq_hz"] for r in doc["modes"]], m.freq_hz, rtol=1e-12)
 
 
+def test_a_high_pass_cut_off_is_the_clis(tmp_path):
+    wav = ASSETS / "recordings/steel_nut_M4_2.wav"
+    doc = cli_json("analyze", str(wav), "--highpass-hz", "100", "--json", "-", cwd=tmp_path)
+    m = resound.analyze(wav, highpass_hz=100)
+    assert differences(doc, m.report, drop={"modes"}) == []
+    # The cut-off is the one asked for, and it changes what is found (the default chooses its own).
+    auto = resound.analyze(wav)
+    assert len(m) != len(auto) or not np.allclose(m.freq_hz, auto.freq_hz)
+
+
 def test_model_reports_are_one_document(tmp_path, rmodal):
     doc = cli_json("model", str(rmodal), "--hit", ",".join(map(str, HIT)), "--json",
                    cwd=tmp_path)

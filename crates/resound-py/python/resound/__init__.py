@@ -140,7 +140,7 @@ def _mono(audio: np.ndarray, channel: Optional[int]) -> np.ndarray:
 def analyze(audio: Union[PathLike, np.ndarray], sample_rate: Optional[float] = None, *,
             channel: Optional[int] = None, strike: Optional[int] = None,
             resample_hz: Optional[int] = None, max_modes: int = 64,
-            min_db: float = 60.0) -> Modes:
+            min_db: float = 60.0, highpass_hz: Optional[float] = None) -> Modes:
     """The damped sinusoids of a recorded strike (Ren 2013 §4).
 
     Args:
@@ -152,19 +152,21 @@ def analyze(audio: Union[PathLike, np.ndarray], sample_rate: Optional[float] = N
         resample_hz: resample a file to this rate first.
         max_modes: most modes kept.
         min_db: keep modes within this many dB of the strongest.
+        highpass_hz: a zero-phase high-pass cut-off applied first (default: one chosen from
+            the rumble measured, as ``resound analyze`` does without ``--highpass-hz``).
     """
     if isinstance(audio, (str, os.PathLike)):
         if sample_rate is not None:
             raise TypeError("sample_rate is for arrays; a file knows its own")
         rows, rep = _native.analyze_file(os.fspath(audio), channel, strike, resample_hz,
-                                         max_modes, min_db)
+                                         max_modes, min_db, highpass_hz)
     else:
         if sample_rate is None:
             raise TypeError("an array needs sample_rate=")
         if resample_hz is not None:
             raise TypeError("resample_hz is for files")
         rows, rep = _native.analyze_array(_mono(audio, channel), float(sample_rate), strike,
-                                          max_modes, min_db)
+                                          max_modes, min_db, highpass_hz)
     rep.pop("modes", None)
     return Modes.from_array(rows, rep)
 
@@ -172,7 +174,8 @@ def analyze(audio: Union[PathLike, np.ndarray], sample_rate: Optional[float] = N
 def analyze_joint(files: Sequence[PathLike], *, channel: Optional[int] = None,
                   strike: Optional[int] = None, every_channel: bool = False,
                   every_strike: bool = False, resample_hz: Optional[int] = None,
-                  max_modes: int = 64, min_db: float = 60.0
+                  max_modes: int = 64, min_db: float = 60.0,
+                  highpass_hz: Optional[float] = None
                   ) -> Tuple[List[Modes], Dict[str, Any]]:
     """One set of poles (f, d) shared by several takes of one object — files, and with
     ``every_channel`` / ``every_strike`` their channels and strikes — each take with its own
@@ -191,7 +194,7 @@ def analyze_joint(files: Sequence[PathLike], *, channel: Optional[int] = None,
     if strike is not None and every_strike:
         raise TypeError("strike and every_strike exclude each other")
     rep = _native.analyze_joint(paths, channel, strike, every_channel, every_strike,
-                                resample_hz, max_modes, min_db)
+                                resample_hz, max_modes, min_db, highpass_hz)
     takes = []
     for k, t in enumerate(rep["takes"]):
         rows = [(m["freq_hz"], m["damping_per_s"], m["amplitude"][k], m["phase_rad"][k])
@@ -223,11 +226,14 @@ def estimate_material(audio: Union[PathLike, np.ndarray], model: ModalModel,
                       channel: Optional[int] = None, strike: Optional[int] = None,
                       name: str = "estimated", residual: bool = True,
                       allow_implausible: bool = False,
-                      mic: Optional[Sequence[float]] = None) -> Tuple[Material, Dict[str, Any]]:
+                      mic: Optional[Sequence[float]] = None,
+                      highpass_hz: Optional[float] = None) -> Tuple[Material, Dict[str, Any]]:
     """Estimates the material of ``model`` struck at ``hit`` (m) from a recording of it
     (Ren 2013 §5): the material and the fit report (paired modes, standard errors, warnings).
     ``mic``: where the microphone was (model coordinates, m); each mode is then weighted by
     what it radiates there (the model's acoustic transfer), as ``render_strike(mic=)`` does.
+    ``highpass_hz``: the analysis' high-pass cut-off, as in ``analyze``. A fit that is not
+    credible raises ``ResoundError`` unless ``allow_implausible``.
     """
     h = [float(c) for c in hit]
     m3 = None if mic is None else [float(c) for c in mic]
@@ -235,13 +241,14 @@ def estimate_material(audio: Union[PathLike, np.ndarray], model: ModalModel,
         if sample_rate is not None:
             raise TypeError("sample_rate is for arrays; a file knows its own")
         m, rep = _native.estimate_material(model, h, os.fspath(audio), None, None, channel,
-                                           strike, name, residual, allow_implausible, m3)
+                                           strike, name, residual, allow_implausible, m3,
+                                           highpass_hz)
     else:
         if sample_rate is None:
             raise TypeError("an array needs sample_rate=")
         m, rep = _native.estimate_material(model, h, None, _mono(audio, channel),
                                            float(sample_rate), None, strike, name, residual,
-                                           allow_implausible, m3)
+                                           allow_implausible, m3, highpass_hz)
     return m, rep
 
 
