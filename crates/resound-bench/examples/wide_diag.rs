@@ -1,5 +1,6 @@
 //! Lists, case by case, the modes the wide analysis protocol misses and the spurious ones it
-//! reports (a diagnostic beside `resound bench analyze`; `R` marks the modes its recall counts):
+//! reports, with each found mode's error over its CRB (a diagnostic beside `resound bench analyze`;
+//! `R` marks the modes its recall counts):
 //! `cargo run --release -p resound-bench --example wide_diag -- SNR_DB CASES`.
 use rand::rngs::SmallRng;
 use rand::SeedableRng;
@@ -48,8 +49,14 @@ fn main() {
         );
         for (i, t) in case.modes.iter().enumerate() {
             let found = m[i].map_or(String::new(), |j| {
+                let (ef, ed) = bounds.as_ref().map_or((f64::NAN, f64::NAN), |b| {
+                    (
+                        (a.modes[j].freq_hz - t.freq_hz).abs() / b[i].freq_hz,
+                        (a.modes[j].damping_per_s - t.damping_per_s).abs() / b[i].damping_per_s,
+                    )
+                });
                 format!(
-                    "-> {:9.2} {:8.2}",
+                    "-> {:9.2} {:8.2}  f/CRB {ef:7.1} d/CRB {ed:7.1}",
                     a.modes[j].freq_hz, a.modes[j].damping_per_s
                 )
             });
