@@ -42,10 +42,11 @@ fn main() {
             level(t) >= top * 1e-3 && energy >= 100.0 * case.sigma * case.sigma
         };
         println!(
-            "case {c}: {} true, {} found, onset error {:.2} ms",
+            "case {c}: {} true, {} found, onset error {:.2} ms, high-pass {}",
             case.modes.len(),
             a.modes.len(),
-            1e3 * (a.onset_s - case.onset as f64 / WIDE_FS)
+            1e3 * (a.onset_s - case.onset as f64 / WIDE_FS),
+            a.conditioning.highpass_reason
         );
         for (i, t) in case.modes.iter().enumerate() {
             let found = m[i].map_or(String::new(), |j| {
