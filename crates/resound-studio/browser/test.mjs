@@ -184,11 +184,15 @@ try {
   await page.waitForFunction(() => /the estimate is not credible/.test(document.getElementById("status").textContent), null, { timeout: 600000 });
   assert.equal(await page.locator("#status").getAttribute("class"), "error");
   assert.match(await page.locator("#status").textContent(), /tick "keep a fit that is not credible"/);
+  assert.match(await page.locator("#estimate-refused").textContent(), /recorded modes paired/);
+  assert.equal(await page.locator("#estimate-refused").isVisible(), true);
+  await page.locator("#material-step").screenshot({ path: join(shots, "3-material-refused.png") });
   step("an estimate with a stand-in mesh: refused as not credible, with how to keep it");
   await page.check("#keep-implausible");
   await page.click("#estimate");
   await waitStatus(/^estimated in/);
   assert.equal(await page.locator("#status").getAttribute("class"), "warn");
+  assert.equal(await page.locator("#estimate-refused").isVisible(), false);
   assert.match(await page.locator("#estimate-report").textContent(), /gamma/);
   await page.waitForFunction(() => document.getElementById("estimate-plot").naturalWidth > 0);
   await page.fill("#save-name", "studio-ramp");

@@ -606,7 +606,7 @@ async fn solve(
             text: solved.report.to_string(),
             report: solved.report,
         })
-        .map_err(|e| e.to_string())
+        .map_err(|e| e.to_string().into())
     })))
 }
 
@@ -736,12 +736,16 @@ async fn estimate(
                 ..Default::default()
             },
         };
-        let out = resound::material::estimate_files(&job, progress).map_err(|e| match e {
-            resound::Error::Implausible(..) => format!(
-                "{}; tick \"keep a fit that is not credible\" to keep it",
-                error_text(&e)
-            ),
-            _ => error_text(&e),
+        let out = resound::material::estimate_files(&job, progress).map_err(|e| match &e {
+            // Refused: why, how to keep it, and the fit report the CLI prints before refusing.
+            resound::Error::Implausible(_, info) => jobs::StepError {
+                message: format!(
+                    "{}; tick \"keep a fit that is not credible\" to keep it",
+                    error_text(&e)
+                ),
+                report: info.as_ref().map(|i| i.to_string()),
+            },
+            _ => error_text(&e).into(),
         })?;
         let id = s.next_id();
         let view = EstimateView {
@@ -763,7 +767,7 @@ async fn estimate(
                 }),
             );
         }
-        serde_json::to_value(view).map_err(|e| e.to_string())
+        serde_json::to_value(view).map_err(|e| e.to_string().into())
     })))
 }
 
@@ -984,7 +988,7 @@ async fn render(
             info: strike.info,
             notes,
         })
-        .map_err(|e| e.to_string())
+        .map_err(|e| e.to_string().into())
     })))
 }
 
@@ -1271,7 +1275,7 @@ async fn scene(State(s): State<Arc<AppState>>, body: Bytes) -> ApiResult<Json<Jo
             summary: r.summary,
             events: r.events,
         })
-        .map_err(|e| e.to_string())
+        .map_err(|e| e.to_string().into())
     })))
 }
 

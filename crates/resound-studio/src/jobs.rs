@@ -52,6 +52,9 @@ pub struct JobStatus {
     /// Why it failed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub error: Option<String>,
+    /// The step's report when it failed with one (an estimate refused as not credible).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub report: Option<String>,
     /// Seconds since it started.
     pub elapsed_s: f64,
 }
@@ -90,8 +93,25 @@ pub(crate) fn quiet_cancellation() {
     });
 }
 
-/// A step's failure as the page shows it.
-pub(crate) type StepResult = Result<serde_json::Value, String>;
+/// A step's failure as the page shows it: why, and the step's report when it has one (an
+/// estimate refused as not credible carries its fit report, as the CLI prints it).
+#[derive(Debug)]
+pub(crate) struct StepError {
+    pub message: String,
+    pub report: Option<String>,
+}
+
+impl From<String> for StepError {
+    fn from(message: String) -> Self {
+        Self {
+            message,
+            report: None,
+        }
+    }
+}
+
+/// A step's outcome.
+pub(crate) type StepResult = Result<serde_json::Value, StepError>;
 
 /// Starts `step` as a job and returns its first status.
 pub(crate) fn spawn<F>(state: &Arc<AppState>, kind: &'static str, step: F) -> JobStatus
@@ -108,6 +128,7 @@ where
         warnings: Vec::new(),
         result: None,
         error: None,
+        report: None,
         elapsed_s: 0.0,
     };
     let (tx, _) = watch::channel(status.clone());
@@ -147,7 +168,8 @@ where
                 }
                 Ok(Err(e)) => {
                     s.state = JobState::Failed;
-                    s.error = Some(e);
+                    s.error = Some(e.message);
+                    s.report = e.report;
                 }
                 Err(payload) if payload.is::<Cancelled>() => s.state = JobState::Cancelled,
                 Err(payload) => {

@@ -562,6 +562,9 @@ async fn solve_estimate_save_and_render_round_trip() {
         why.contains("not credible") && why.contains("keep a fit that is not credible"),
         "{why}"
     );
+    // The refusal carries the fit report the CLI prints before refusing.
+    let report = st["report"].as_str().unwrap_or_default();
+    assert!(report.contains("recorded modes paired"), "{st}");
     // …and kept, with its warnings, when asked for.
     let start = post(
         &s,

@@ -47,6 +47,7 @@ const post = (path, body) =>
 function jobError(s) {
   const e = new Error(s.state === "cancelled" ? `${s.kind} cancelled` : s.error || s.state);
   e.cancelled = s.state === "cancelled";
+  e.report = s.report;
   return e;
 }
 
@@ -473,6 +474,7 @@ function setHit(p) {
 async function estimate() {
   $("estimate").disabled = true;
   say("estimating the material…");
+  $("estimate-refused").hidden = true;
   try {
     const start = await post("/api/estimate", {
       recording: state.recording.id,
@@ -491,6 +493,11 @@ async function estimate() {
     sayDone(`estimated in ${done.elapsed_s.toFixed(1)} s`, done.warnings, r.info.warnings);
   } catch (e) {
     say(e.message, !e.cancelled);
+    // A refused fit still shows its report (what was paired, how much of the loudness).
+    if (e.report) {
+      $("estimate-refused").textContent = `not kept:\n${e.report}`;
+      $("estimate-refused").hidden = false;
+    }
   } finally {
     updateButtons();
   }
