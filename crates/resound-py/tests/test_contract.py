@@ -116,7 +116,9 @@ def test_a_high_pass_cut_off_is_the_clis(tmp_path):
     m = resound.analyze(wav, highpass_hz=100)
     assert differences(doc, m.report, drop={"modes"}) == []
     # The cut-off is the one asked for, and it changes what is found (the default chooses its own).
+    assert m.report["conditioning"]["highpass_hz"] == 100.0
     auto = resound.analyze(wav)
+    assert auto.report["conditioning"].get("highpass_hz") != 100.0
     assert len(m) != len(auto) or not np.allclose(m.freq_hz, auto.freq_hz)
 
 

@@ -89,12 +89,13 @@ pub fn robust_rms(r: &[f64]) -> f64 {
 /// the other nor above four times the data's peak) and fits better by more than the Bayesian
 /// information criterion asks (4 ln N σ² per removed mode, σ the smaller of
 /// [`RefineParams::noise_rms`] and the residual's robust spread) and removes most of what the
-/// merged fit misses within the cluster's own bands (each merged mode's f ± (3d/π + 2/T)):
-/// 80 % of that squared error beyond the bands' share of the noise, counted both in all and
-/// within those bands. The whole target
-/// is no measure: it also holds other clusters' misfit at other frequencies, which says
-/// nothing about this pair (a beating doublet was fitted as one mode with a wrong damping when
-/// it had to remove a fifth of it).
+/// merged fit misses within the cluster's own bands (each merged mode's f ± (3d/π + 2/T)): its
+/// gain exceeds 80 % of that squared error beyond the bands' share of the noise, and it leaves
+/// under 20 % of it. The whole target is no measure: it also holds other clusters' misfit at
+/// other frequencies, which says nothing about this pair (a beating doublet was fitted as one
+/// mode with a wrong damping when it had to remove a fifth of it). Poles whose dampings differ
+/// by more than 20× part in time, not frequency: for them a fifth of the whole error also
+/// suffices. A pair that beats slower than it decays must not cancel itself at the onset.
 pub fn refine_modes(
     x: &[f64],
     sample_rate_hz: f64,
