@@ -413,6 +413,25 @@ fn resolved_pair(
             && (beats || onset >= 0.5 * strong))
 }
 
+/// Whether every pair of neighbours (by frequency) of `modes` that [`merge_duplicates`] would
+/// merge is a credible pair ([`resolved_pair`]) in `y` (its `len` samples, the noise
+/// `noise_rms`). A fit that moved all modes at once checks this after the fact.
+pub(crate) fn close_pairs_credible(
+    modes: &[DampedMode],
+    y: &[f64],
+    noise_rms: f64,
+    sample_rate_hz: f64,
+) -> bool {
+    let mut sorted = modes.to_vec();
+    sorted.sort_by(|a, b| a.freq_hz.total_cmp(&b.freq_hz));
+    let len = y.len();
+    let window_s = len as f64 / sample_rate_hz;
+    let peak = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    sorted
+        .windows(2)
+        .all(|w| resolved_pair(&w[0], &w[1], window_s, peak, noise_rms, sample_rate_hz, len))
+}
+
 /// Whether two close poles stand far enough apart to be two: a tenth of the window's
 /// resolution, or — at a signal-to-noise ratio where the data resolve less — four standard
 /// deviations of their gap by the Cramér–Rao bound (their σ_f combined, at `noise_rms` over
