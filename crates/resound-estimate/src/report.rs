@@ -11,7 +11,12 @@
 //!   `2d = α + β ω²`, by weighted least squares; the parameters' standard errors come from the
 //!   scatter about the line (at least three pairs; with fewer, the uncertainty is unknown);
 //! - **loudness share**: the share of the recording's perceptual weight (sone·s, the metric's
-//!   own weights) carried by paired modes — how much of what is heard the estimate explains.
+//!   own weights) carried by paired modes — how much of what is heard the estimate explains;
+//! - **chance share**: the share the same estimated modes pair when all their frequencies are
+//!   moved by one arbitrary factor (median over factors ½–2 away from the fit). An object with
+//!   many modes pairs much of any recording by chance: a wrong mesh of 40 modes pairs about
+//!   half of the bundled ramp recording's loudness wherever γ puts it, a right one a few
+//!   percent. Only the share above it says the object is the recorded one.
 
 use crate::features::FeaturePoint;
 use crate::forward::RayleighParams;
@@ -39,9 +44,20 @@ pub struct FitReport {
     pub gamma_sigma: Option<f64>,
     /// Median relative frequency error of the pairs.
     pub median_freq_error: f64,
+    /// The loudness share the same estimated modes reach by chance: the median share over
+    /// every frequency scale from ½ to 2 that is not the fit's own (further than twice
+    /// [`PAIR_TOLERANCE`] from 1). A share not well above it says the pairing is chance.
+    #[serde(default)]
+    pub chance_share: f64,
 }
 
 impl FitReport {
+    /// The loudness share above what chance pairs: `loudness_share − chance_share` (it can be
+    /// negative: the fit's scale pairs less than a typical other one).
+    pub fn share_over_chance(&self) -> f64 {
+        self.loudness_share - self.chance_share
+    }
+
     /// Relative uncertainty of γ (σ_γ / γ).
     pub fn gamma_relative(&self, gamma: f64) -> Option<f64> {
         self.gamma_sigma.map(|s| s / gamma)
@@ -75,7 +91,44 @@ pub fn pooled_fit_report(
         total += t;
         recorded_modes += recorded.len();
     }
-    report_from_pairs(&pairs, total, recorded_modes, params)
+    let mut report = report_from_pairs(&pairs, total, recorded_modes, params);
+    report.chance_share = chance_share(takes);
+    report
+}
+
+/// Frequency scales [`chance_share`] tries, log-spaced over ½–2.
+const CHANCE_SCALES: usize = 97;
+
+/// The median loudness share of `takes` when every estimated frequency is multiplied by a
+/// scale from ½ to 2 not within twice [`PAIR_TOLERANCE`] of 1: what pairing reaches when the
+/// estimated modes are put anywhere (0 without recorded loudness).
+pub fn chance_share(takes: &[(&[DampedMode], &[DampedMode], f64)]) -> f64 {
+    let mut shares: Vec<f64> = (0..CHANCE_SCALES)
+        .map(|k| 2f64.powf(2.0 * k as f64 / (CHANCE_SCALES - 1) as f64 - 1.0))
+        .filter(|s| s.ln().abs() > 2.0 * PAIR_TOLERANCE)
+        .map(|s| {
+            let (mut paired, mut total) = (0.0, 0.0);
+            for &(recorded, estimated, duration_s) in takes {
+                let moved: Vec<DampedMode> = estimated
+                    .iter()
+                    .map(|m| DampedMode {
+                        freq_hz: m.freq_hz * s,
+                        ..*m
+                    })
+                    .collect();
+                let (p, t) = pair_modes(recorded, &moved, duration_s);
+                paired += p.iter().map(|p| p.2).sum::<f64>();
+                total += t;
+            }
+            if total > 0.0 {
+                paired / total
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    shares.sort_by(f64::total_cmp);
+    shares.get(shares.len() / 2).copied().unwrap_or(0.0)
 }
 
 /// Pairs each recorded mode with the nearest estimated one within [`PAIR_TOLERANCE`]
@@ -159,6 +212,7 @@ fn report_from_pairs(
         beta_sigma,
         gamma_sigma,
         median_freq_error,
+        chance_share: 0.0,
     }
 }
 
@@ -257,5 +311,36 @@ mod tests {
         let r = fit_report(&extra, &exact, &p, 1.0);
         assert_eq!(r.paired_modes, 5);
         assert!(r.loudness_share < 1.0);
+    }
+
+    #[test]
+    fn a_dense_wrong_object_pairs_by_chance_and_a_right_one_does_not() {
+        let p = RayleighParams {
+            alpha: 2.0,
+            beta: 1e-7,
+            gamma: 2.6e7,
+            sigma: 1.0,
+        };
+        let d = |f: f64| 0.5 * (p.alpha + p.beta * (TAU * f).powi(2));
+        // Recorded: eight modes of irregular spacing, 300 Hz–9 kHz.
+        let rec: Vec<DampedMode> = [311.0, 870.0, 1490.0, 2333.0, 3760.0, 5020.0, 6890.0, 8710.0]
+            .iter()
+            .map(|&f| mode(f, d(f)))
+            .collect();
+        let right = fit_report(&rec, &rec, &p, 1.0);
+        assert!(right.chance_share < 0.1, "{right:?}");
+        assert!(right.share_over_chance() > 0.9, "{right:?}");
+        // A wrong object with 60 modes spread evenly in log frequency (2.4 % apart): nearly
+        // every recorded mode finds one within 3 %, at its scale as at any other.
+        let dense: Vec<DampedMode> = (0..60)
+            .map(|k| {
+                let f = 250.0 * 1.024f64.powi(k * 5 / 2) * (1.0 + 0.004 * (k % 3) as f64);
+                mode(f, d(f))
+            })
+            .collect();
+        let wrong = fit_report(&rec, &dense, &p, 1.0);
+        assert!(wrong.loudness_share > 0.5, "{wrong:?}");
+        assert!(wrong.chance_share > 0.5, "{wrong:?}");
+        assert!(wrong.share_over_chance() < 0.25, "{wrong:?}");
     }
 }

@@ -547,19 +547,31 @@ async fn solve_estimate_save_and_render_round_trip() {
     )
     .await;
     assert_eq!(r.status, StatusCode::NOT_FOUND);
-    // The demo's bar stands in for the recording's ramp: few of the recorded modes pair with
-    // its modes, so the fit is refused as not credible, with how to keep it…
+    // A thin 0.3 m rod is far from the recording's ramp: matching its modes to the recorded
+    // ones needs a γ no solid has, so the fit is refused as not credible, with how to keep it…
+    let start = post(
+        &s,
+        "/api/objects",
+        json!({"kind": "bar", "sizes_m": [0.3, 0.01, 0.01], "modes": 40}),
+    )
+    .await;
+    let rod = finish(&s, &start).await["result"]["object"]
+        .as_u64()
+        .unwrap();
+    let rod_hit = [0.02, 0.0, 0.005];
     let start = post(
         &s,
         "/api/estimate",
-        json!({"recording": rec_id, "object": obj, "hit_m": hit}),
+        json!({"recording": rec_id, "object": rod, "hit_m": rod_hit}),
     )
     .await;
     let st = finish(&s, &start).await;
     assert_eq!(st["state"], "failed", "{st}");
     let why = st["error"].as_str().unwrap();
     assert!(
-        why.contains("not credible") && why.contains("keep a fit that is not credible"),
+        why.contains("not credible")
+            && why.contains("outside the range of solids")
+            && why.contains("keep a fit that is not credible"),
         "{why}"
     );
     // The refusal carries the fit report the CLI prints before refusing.
@@ -569,13 +581,38 @@ async fn solve_estimate_save_and_render_round_trip() {
     let start = post(
         &s,
         "/api/estimate",
-        json!({"recording": rec_id, "object": obj, "hit_m": hit, "allow_implausible": true}),
+        json!({"recording": rec_id, "object": rod, "hit_m": rod_hit, "allow_implausible": true}),
     )
     .await;
     let st = finish(&s, &start).await;
     assert_eq!(st["state"], "done", "{st}");
     let warned = st["result"]["info"]["warnings"].as_array().unwrap();
     assert!(warned.iter().any(|w| w["kind"] == "implausible"), "{st}");
+    // The demo's bar stands in for the ramp: 40 modes pair much of the recording's loudness
+    // wherever γ puts them, so the fit is kept (when asked to, whatever its share) with the
+    // warning that its pairing is mostly chance, and the report says what chance pairs.
+    let start = post(
+        &s,
+        "/api/estimate",
+        json!({"recording": rec_id, "object": obj, "hit_m": hit, "allow_implausible": true}),
+    )
+    .await;
+    let st = finish(&s, &start).await;
+    assert_eq!(st["state"], "done", "{st}");
+    let info = &st["result"]["info"];
+    let chance = info["fit"]["chance_share"].as_f64().unwrap();
+    let share = info["fit"]["loudness_share"].as_f64().unwrap();
+    assert!(chance > 0.1 && share - chance < 0.25, "{info}");
+    assert!(
+        info["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w["kind"] == "model"
+                && w["message"].as_str().unwrap().contains("mostly chance")),
+        "{info}"
+    );
+    assert!(st["result"]["text"].as_str().unwrap().contains("by chance"));
     let est = st["result"]["estimate"].as_u64().unwrap();
     let gamma = st["result"]["material"]["gamma"].as_f64().unwrap();
     assert!(gamma.is_finite() && gamma > 0.0);

@@ -475,6 +475,10 @@ async function estimate() {
   $("estimate").disabled = true;
   say("estimating the material…");
   $("estimate-refused").hidden = true;
+  // An earlier estimate (of another object, hit or recording) is not shown beside this one's
+  // outcome, nor saved in its place.
+  $("estimated").hidden = true;
+  state.estimate = null;
   try {
     const start = await post("/api/estimate", {
       recording: state.recording.id,

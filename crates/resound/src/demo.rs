@@ -54,6 +54,9 @@ pub struct DemoReport {
     pub scene: SceneSummary,
     /// Everything, s.
     pub total_s: f64,
+    /// What the steps' reports warned of (the estimate's: the stand-in bar's pairing with the
+    /// recording is mostly chance), also in `summary.txt` and sent as `warning:` lines.
+    pub warnings: Vec<resound_core::Warning>,
     /// The text of `summary.txt`.
     pub text: String,
 }
@@ -156,6 +159,10 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
         t,
         &mut report,
     );
+    for w in &info.warnings {
+        step(&format!("warning: {}", w.message));
+    }
+    report.warnings.extend(info.warnings.iter().cloned());
 
     // 4. One strike of it.
     let t = Instant::now();
@@ -292,6 +299,12 @@ pub fn run(p: &DemoParams, step: &dyn Fn(&str)) -> Result<DemoReport> {
     let mut text = format!("Resound demo ({:.1} s in all)\n\n", report.total_s);
     for (s, name) in &report.steps {
         let _ = writeln!(text, "{s:>7.2} s  {name}");
+    }
+    if !report.warnings.is_empty() {
+        text.push('\n');
+    }
+    for w in &report.warnings {
+        let _ = writeln!(text, "warning: {}", w.message);
     }
     text.push_str(
         "\nFiles: recording.wav/.png (the bundled recording and its modes), ramp.rmodal (the stand-in\n\

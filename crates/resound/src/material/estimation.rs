@@ -58,6 +58,11 @@ impl Default for EstimateMaterialParams {
 /// Recorded modes an estimate must pair with estimated ones to determine α, β and γ.
 pub const MIN_PAIRED_MODES: usize = 3;
 
+/// Loudness share the pairing must carry above what chance pairs
+/// ([`resound_estimate::report::FitReport::share_over_chance`]) before the object is taken
+/// for the recorded one without a warning.
+pub const MIN_SHARE_OVER_CHANCE: f64 = 0.25;
+
 /// What [`estimate_material`] found besides the material: the estimate's report, the one
 /// document every front end shows (`resound estimate --json` prints it, Python receives it as a
 /// dict made from it, the studio serves it).
@@ -149,7 +154,7 @@ impl std::fmt::Display for EstimateInfo {
         writeln!(
             f,
             "fit: {} of {} recorded modes paired ({error}), {:.0} % of the recording's \
-             loudness; alpha {}, beta {}, gamma {}",
+             loudness ({:.0} % by chance); alpha {}, beta {}, gamma {}",
             fit.paired_modes,
             fit.recorded_modes,
             // (-0 % printed when nothing was paired.)
@@ -158,6 +163,7 @@ impl std::fmt::Display for EstimateInfo {
             } else {
                 0.0
             },
+            100.0 * fit.chance_share,
             pm(fit.alpha_sigma, "1/s"),
             pm(fit.beta_sigma, "s"),
             pm(fit.gamma_sigma, "m²/s²")
@@ -686,6 +692,12 @@ fn estimate_takes(
         warnings.push(Warning::new(WarningKind::Implausible, format!(
             "the paired modes carry only {:.0} % of the recording's loudness: most of what is heard is not explained by this object",
             100.0 * fit.loudness_share
+        )));
+    } else if fit.share_over_chance() < MIN_SHARE_OVER_CHANCE {
+        warnings.push(Warning::new(WarningKind::Model, format!(
+            "the object's modes pair {:.0} % of the recording's loudness here and {:.0} % wherever else γ puts them (the median over scalings of ½–2): the pairing is mostly chance, so the object may not be the recorded one and α, β, γ not its material's",
+            100.0 * fit.loudness_share,
+            100.0 * fit.chance_share
         )));
     }
     let band_top = analysis.modes.iter().map(|m| m.freq_hz).fold(0.0, f64::max);
