@@ -8,7 +8,6 @@
 
 use crate::refine::cholesky_solve;
 use resound_core::DampedMode;
-use std::f64::consts::TAU;
 
 /// Standard-deviation bounds of one mode's parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,50 +32,7 @@ pub fn cramer_rao(
 ) -> Option<Vec<ModeBound>> {
     let k = modes.len();
     let np = 4 * k;
-    let mut fim = vec![0.0; np * np];
-    let mut g = vec![0.0; np];
-    // Samples beyond where every mode is below 1e-9 of its amplitude add nothing measurable.
-    let t_end = modes
-        .iter()
-        .map(|m| m.time_to_floor_s(1e-9 * m.amplitude))
-        .fold(0.0, f64::max);
-    let n_used = n.min((t_end * sample_rate_hz).ceil() as usize + 1);
-    // Each mode's e^(−d t)·e^(i(ωt+θ)) is carried from sample to sample by one complex
-    // multiplication (no exp or sin_cos per sample; the drift over 10⁶ steps is ~1e-10).
-    let mut phasor: Vec<(f64, f64)> = modes
-        .iter()
-        .map(|m| (m.phase_rad.cos(), m.phase_rad.sin()))
-        .collect();
-    let step: Vec<(f64, f64)> = modes
-        .iter()
-        .map(|m| {
-            let r = (-m.damping_per_s / sample_rate_hz).exp();
-            let (s, c) = (TAU * m.freq_hz / sample_rate_hz).sin_cos();
-            (r * c, r * s)
-        })
-        .collect();
-    for i in 0..n_used {
-        let t = i as f64 / sample_rate_hz;
-        for (j, m) in modes.iter().enumerate() {
-            let (c, s) = phasor[j];
-            g[4 * j] = m.amplitude * c * TAU * t;
-            g[4 * j + 1] = -t * m.amplitude * s;
-            g[4 * j + 2] = s;
-            g[4 * j + 3] = m.amplitude * c;
-            let (sc, ss) = step[j];
-            phasor[j] = (c * sc - s * ss, c * ss + s * sc);
-        }
-        for a in 0..np {
-            for b in a..np {
-                fim[a * np + b] += g[a] * g[b];
-            }
-        }
-    }
-    for a in 0..np {
-        for b in 0..a {
-            fim[a * np + b] = fim[b * np + a];
-        }
-    }
+    let fim = fisher_information(modes, sample_rate_hz, n);
     // Invert column by column (F is small: 4 per mode).
     let scale = noise_rms * noise_rms;
     let mut diag = vec![0.0; np];
@@ -97,6 +53,55 @@ pub fn cramer_rao(
             })
             .collect(),
     )
+}
+
+/// `JᵀJ` of `modes` over `n` samples in (f, d, a, θ) per mode, full and row-major: the
+/// closed-form `JᵀJ` of the fit's (f, d, u = a cos θ, v = a sin θ) columns
+/// ([`crate::refine::gram`], O(k² log N)), taken to (a, θ) by the chain rule
+/// `F_aθ = Tᵀ F_uv T` with `T = ∂(u, v)/∂(a, θ)`.
+fn fisher_information(modes: &[DampedMode], sample_rate_hz: f64, n: usize) -> Vec<f64> {
+    let np = 4 * modes.len();
+    let mut uv = vec![0.0; np * np];
+    crate::refine::gram(&crate::refine::to_params(modes), n, sample_rate_hz, &mut uv);
+    for a in 0..np {
+        for b in 0..a {
+            uv[a * np + b] = uv[b * np + a];
+        }
+    }
+    // T: identity for f and d, [[cos θ, −a sin θ], [sin θ, a cos θ]] for (u, v) by (a, θ).
+    let mut t = vec![0.0; np * np];
+    for (j, m) in modes.iter().enumerate() {
+        let o = 4 * j;
+        let (s, c) = m.phase_rad.sin_cos();
+        t[o * np + o] = 1.0;
+        t[(o + 1) * np + o + 1] = 1.0;
+        t[(o + 2) * np + o + 2] = c;
+        t[(o + 2) * np + o + 3] = -m.amplitude * s;
+        t[(o + 3) * np + o + 2] = s;
+        t[(o + 3) * np + o + 3] = m.amplitude * c;
+    }
+    // Tᵀ F T, using T's block structure (two non-zeros or fewer per column within a block).
+    let nz = |col: usize| -> Vec<(usize, f64)> {
+        let o = col / 4 * 4;
+        (o..o + 4)
+            .filter(|&r| t[r * np + col] != 0.0)
+            .map(|r| (r, t[r * np + col]))
+            .collect()
+    };
+    let cols: Vec<Vec<(usize, f64)>> = (0..np).map(nz).collect();
+    let mut ft = vec![0.0; np * np];
+    for r in 0..np {
+        for (c, col) in cols.iter().enumerate() {
+            ft[r * np + c] = col.iter().map(|&(q, w)| uv[r * np + q] * w).sum();
+        }
+    }
+    let mut out = vec![0.0; np * np];
+    for (r, row) in cols.iter().enumerate() {
+        for c in 0..np {
+            out[r * np + c] = row.iter().map(|&(q, w)| w * ft[q * np + c]).sum();
+        }
+    }
+    out
 }
 
 /// How sure one analysed mode is: standard deviations of its frequency and damping.
@@ -231,6 +236,75 @@ pub fn mode_sigmas(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::TAU;
+
+    /// `JᵀJ` in (f, d, a, θ) summed sample by sample from the analytic derivatives of
+    /// `a e^(−dt) sin(ωt + θ)`: the reference the closed form must equal.
+    fn fisher_by_samples(modes: &[DampedMode], fs: f64, n: usize) -> Vec<f64> {
+        let np = 4 * modes.len();
+        let mut fim = vec![0.0; np * np];
+        let mut g = vec![0.0; np];
+        for i in 0..n {
+            let t = i as f64 / fs;
+            for (j, m) in modes.iter().enumerate() {
+                let e = (-m.damping_per_s * t).exp();
+                let (s, c) = (TAU * m.freq_hz * t + m.phase_rad).sin_cos();
+                g[4 * j] = m.amplitude * e * c * TAU * t;
+                g[4 * j + 1] = -t * m.amplitude * e * s;
+                g[4 * j + 2] = e * s;
+                g[4 * j + 3] = m.amplitude * e * c;
+            }
+            for a in 0..np {
+                for b in 0..np {
+                    fim[a * np + b] += g[a] * g[b];
+                }
+            }
+        }
+        fim
+    }
+
+    fn mode(f: f64, d: f64, a: f64) -> DampedMode {
+        DampedMode {
+            freq_hz: f,
+            damping_per_s: d,
+            amplitude: a,
+            phase_rad: 0.4,
+        }
+    }
+
+    #[test]
+    fn closed_form_fisher_information_equals_the_sum_over_samples() {
+        let fs = 8000.0;
+        let n = 6000;
+        // A lightly damped close pair, a heavily damped mode and one near Nyquist.
+        let modes = [
+            mode(440.0, 0.3, 1.0),
+            DampedMode {
+                phase_rad: 2.1,
+                ..mode(440.4, 0.5, 0.3)
+            },
+            DampedMode {
+                phase_rad: -1.2,
+                ..mode(1250.0, 300.0, 2.0)
+            },
+            mode(3990.0, 12.0, 0.05),
+        ];
+        let want = fisher_by_samples(&modes, fs, n);
+        let got = fisher_information(&modes, fs, n);
+        let np = 16;
+        for a in 0..np {
+            for b in 0..np {
+                let scale = (want[a * np + a] * want[b * np + b]).sqrt();
+                let err = (got[a * np + b] - want[a * np + b]).abs() / scale;
+                assert!(
+                    err < 1e-8,
+                    "F[{a}][{b}]: {} vs {}",
+                    got[a * np + b],
+                    want[a * np + b]
+                );
+            }
+        }
+    }
 
     #[test]
     fn single_undamped_tone_matches_textbook_bound() {

@@ -900,29 +900,40 @@ fn assemble(
     jtj: &mut [f64],
     jtr: &mut [f64],
 ) {
+    gram(p, len, sample_rate_hz, jtj);
+    let poles = poles_of(p, sample_rate_hz);
+    let (r0, r1) = (&sums.r0, &sums.r1);
+    for (j, pole) in poles.iter().enumerate() {
+        for (a, (ga, pa)) in column_coefficients(pole.1).iter().enumerate() {
+            jtr[P * j + a] = (ga * if *pa == 0 { r0[j] } else { r1[j] }).re;
+        }
+    }
+}
+
+/// Column coefficients `g` and powers of `t` of a mode's parameters (f, d, u, v): the column
+/// is `Re(g tᵖ zⁿ)` for a mode of complex amplitude `c`.
+fn column_coefficients(c: C64) -> [(C64, usize); P] {
+    [
+        (C64::new(0.0, TAU) * c, 1),
+        (-c, 1),
+        (C64::new(0.0, -1.0), 0),
+        (C64::new(1.0, 0.0), 0),
+    ]
+}
+
+/// `JᵀJ` of the modes `p` (per mode f, d, u, v) over `len` samples, upper triangle of the
+/// row-major `p.len()²` matrix: every entry is a sum of geometric series in `z_a z_b` and
+/// `z_a z̄_b` ([`power_sums`]), so it costs O(k² log N), not O(N k²).
+pub(crate) fn gram(p: &[f64], len: usize, sample_rate_hz: f64, jtj: &mut [f64]) {
     let np = p.len();
     let k = np / P;
     let dt = 1.0 / sample_rate_hz;
     let poles = poles_of(p, sample_rate_hz);
-    let (r0, r1) = (&sums.r0, &sums.r1);
     jtj.iter_mut().for_each(|v| *v = 0.0);
-    // Column coefficients g and powers of t per parameter (f, d, u, v) of mode j.
-    let coef = |j: usize| -> [(C64, usize); P] {
-        let c = poles[j].1;
-        [
-            (C64::new(0.0, TAU) * c, 1),
-            (-c, 1),
-            (C64::new(0.0, -1.0), 0),
-            (C64::new(1.0, 0.0), 0),
-        ]
-    };
     for j in 0..k {
-        let g = coef(j);
-        for (a, (ga, pa)) in g.iter().enumerate() {
-            jtr[P * j + a] = (ga * if *pa == 0 { r0[j] } else { r1[j] }).re;
-        }
+        let g = column_coefficients(poles[j].1);
         for l in j..k {
-            let h = coef(l);
+            let h = column_coefficients(poles[l].1);
             let (zj, zl) = (poles[j].0, poles[l].0);
             let same = power_sums(zj * zl, len, dt);
             let conj = power_sums(zj * zl.conj(), len, dt);
