@@ -235,6 +235,7 @@ pub fn mode_sigmas(
 
 #[cfg(test)]
 mod tests {
+    use super::sigma_tests::mode;
     use super::*;
     use std::f64::consts::TAU;
 
@@ -261,15 +262,6 @@ mod tests {
             }
         }
         fim
-    }
-
-    fn mode(f: f64, d: f64, a: f64) -> DampedMode {
-        DampedMode {
-            freq_hz: f,
-            damping_per_s: d,
-            amplitude: a,
-            phase_rad: 0.4,
-        }
     }
 
     #[test]
@@ -342,7 +334,8 @@ mod sigma_tests {
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
 
-    fn mode(f: f64, d: f64, a: f64) -> DampedMode {
+    /// A mode at phase 0.4 rad.
+    pub(super) fn mode(f: f64, d: f64, a: f64) -> DampedMode {
         DampedMode {
             freq_hz: f,
             damping_per_s: d,
