@@ -246,6 +246,8 @@ impl ModeColumns {
     fn hann_sum_half(&self, theta: f64, (s, c): (f64, f64), half_n: (f64, f64)) -> Complex64 {
         let n = Self::em1(self.em1_sigma_w, self.e_sigma_w, half_n);
         let (sb, cb) = self.half_beta;
+        let up = (s * cb + c * sb, c * cb - s * sb);
+        let down = (s * cb - c * sb, c * cb + s * sb);
         let g = |half: (f64, f64), angle: f64| {
             let d = Self::em1(self.em1_sigma, self.e_sigma, half);
             if d.norm_sqr() > 1e-14 {
@@ -257,10 +259,7 @@ impl ModeColumns {
             }
         };
         let beta = TAU / self.window;
-        g((s, c), theta) * 0.5
-            - (g((s * cb + c * sb, c * cb - s * sb), theta + beta)
-                + g((s * cb - c * sb, c * cb + s * sb), theta - beta))
-                * 0.25
+        g((s, c), theta) * 0.5 - (g(up, theta + beta) + g(down, theta - beta)) * 0.25
     }
 
     /// `[P_0, Q_0, p_step, q_step]` of bin `k`, as [`mode_basis_column`] returns them.
@@ -313,6 +312,41 @@ impl ModeColumns {
                 neg = turn(neg);
             }
             f(k, self.column_with(k, pos, neg));
+        }
+    }
+
+    /// [`Self::for_each_column`] without the negative-frequency term: `[P_0, p_step]` of every
+    /// bin `lo..=hi`, for bins far from the mode's mirror image at `−f` (and its alias at
+    /// `fs − f`), where `Q` is below the window's leakage already left out.
+    pub fn for_each_positive_column(
+        &self,
+        lo: usize,
+        hi: usize,
+        mut f: impl FnMut(usize, [Complex64; 2]),
+    ) {
+        if self.direct.is_some() {
+            return self.for_each_column(lo, hi, |k, [p, _, ps, _]| f(k, [p, ps]));
+        }
+        let (sd, cd) = (-0.5 * self.bin_step).sin_cos();
+        let turn = |(s, c): (f64, f64)| (s * cd + c * sd, c * cd - s * sd);
+        let mut pos = (0.0, 1.0);
+        let (sw, cw) = self.half_w;
+        let half_j = Complex64::new(0.0, 0.5);
+        for k in lo..=hi {
+            if (k - lo).is_multiple_of(Self::REANCHOR) {
+                pos = (0.5 * (self.omega - self.bin_step * k as f64)).sin_cos();
+            } else {
+                pos = turn(pos);
+            }
+            let wk = self.bin_step * k as f64;
+            let half_n = match k % 4 {
+                0 => (sw, cw),
+                1 => (-cw, sw),
+                2 => (-sw, -cw),
+                _ => (cw, -sw),
+            };
+            let p = self.hann_sum_half(self.omega - wk, pos, half_n);
+            f(k, [-(half_j * p), self.p_step]);
         }
     }
 
@@ -442,6 +476,14 @@ mod tests {
                 let mut swept = Vec::new();
                 fast.for_each_column(0, spec.bins - 1, |k, c| swept.push((k, c)));
                 assert_eq!(swept.len(), spec.bins);
+                // The positive term alone, from any first bin.
+                let mut positive = Vec::new();
+                fast.for_each_positive_column(5, spec.bins - 1, |k, c| positive.push((k, c)));
+                assert_eq!(positive.len(), spec.bins - 5);
+                for (k, [p, ps]) in positive {
+                    assert!((p - cols[k][0]).norm() <= 1e-9 * peak, "f {f} d {d} k {k}");
+                    assert_eq!(ps, cols[k][2]);
+                }
                 for (k, want) in cols.iter().enumerate() {
                     assert_eq!(swept[k].0, k);
                     for got in [fast.column(k), swept[k].1] {
