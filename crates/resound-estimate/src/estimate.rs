@@ -12,11 +12,13 @@
 
 use crate::features::{match_ratio, FeaturePoint};
 use crate::forward::{forward_modes, RayleighParams};
-use crate::image::{image_of_modes, image_of_signal, ImageGrid, LoudnessImage};
+use crate::image::{
+    audible_samples, audible_signal, image_of_modes, image_of_signal, ImageGrid, LoudnessImage,
+};
 use argmin::core::{CostFunction, Error as ArgminError, Executor};
 use argmin::solver::neldermead::NelderMead;
 use rayon::prelude::*;
-use resound_core::{damped::synthesize, DampedMode};
+use resound_core::DampedMode;
 use std::f64::consts::TAU;
 
 /// The object side of the estimation: a modal model's eigenvalues at the reference material and
@@ -177,7 +179,7 @@ impl<'a> Objective<'a> {
         let route = match self.route {
             ImageRoute::Auto => {
                 if analytic_cost(&modes, &self.grid)
-                    < synthesized_cost(modes.len(), self.samples, &self.grid)
+                    < synthesized_cost(&modes, self.samples, &self.grid)
                 {
                     ImageRoute::Analytic
                 } else {
@@ -189,7 +191,7 @@ impl<'a> Objective<'a> {
         let image = match route {
             ImageRoute::Analytic | ImageRoute::Auto => image_of_modes(&modes, &self.grid),
             ImageRoute::Synthesized => image_of_signal(
-                &synthesize(&modes, self.grid.sample_rate_hz, self.samples),
+                &audible_signal(&modes, &self.grid, self.samples),
                 &self.grid,
             ),
         };
@@ -224,10 +226,15 @@ fn analytic_cost(modes: &[DampedMode], grid: &ImageGrid) -> f64 {
         + 2.0 * (grid.frames * (grid.window_len + 1)) as f64
 }
 
-/// Rough cost (ns) of synthesis + [`image_of_signal`].
-fn synthesized_cost(modes: usize, samples: usize, grid: &ImageGrid) -> f64 {
+/// Rough cost (ns) of synthesis ([`audible_signal`]: each mode while it is audible) +
+/// [`image_of_signal`].
+fn synthesized_cost(modes: &[DampedMode], samples: usize, grid: &ImageGrid) -> f64 {
     let fft = (2 * grid.window_len) as f64 * ((2 * grid.window_len) as f64).log2();
-    (modes * samples) as f64 + 0.5 * grid.frames as f64 * fft
+    let synthesis: usize = modes
+        .iter()
+        .map(|m| audible_samples(m, grid, samples))
+        .sum();
+    synthesis as f64 + 0.5 * grid.frames as f64 * fft
 }
 
 /// Parameters ↔ the optimizer's unconstrained vector (α, ln β, ln γ, ln σ); α is folded to ≥ 0.
@@ -672,6 +679,7 @@ fn refine_start(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use resound_core::damped::synthesize;
 
     /// A plate-like spectrum: 40 modes from 300 Hz, growing roughly like n^1.3, with gains that
     /// fall and vary.

@@ -239,6 +239,29 @@ pub fn image_of_signal(x: &[f64], grid: &ImageGrid) -> LoudnessImage {
     finish(grid, ms)
 }
 
+/// The modes' signal over `samples` samples at the grid's rate, each mode only while it can
+/// move a cell of `grid` ([`ImageGrid::audible_s`], where [`image_of_modes`] stops it too) and
+/// one frame beyond: the synthesized route's input, at the cost of the modes' audible spans
+/// instead of all of them times the whole recording.
+pub fn audible_signal(modes: &[DampedMode], grid: &ImageGrid, samples: usize) -> Vec<f64> {
+    let mut out = vec![0.0; samples];
+    for m in modes {
+        m.add_to(
+            grid.sample_rate_hz,
+            &mut out[..audible_samples(m, grid, samples)],
+        );
+    }
+    out
+}
+
+/// Samples of `m` [`audible_signal`] synthesizes, at most `samples`.
+pub fn audible_samples(m: &DampedMode, grid: &ImageGrid, samples: usize) -> usize {
+    // A non-finite span (no damping) saturates to the whole recording.
+    ((grid.audible_s(m) * grid.sample_rate_hz).ceil() as usize)
+        .saturating_add(grid.window_len)
+        .min(samples)
+}
+
 /// The image of a set of modes, computed analytically (see the module docs).
 pub fn image_of_modes(modes: &[DampedMode], grid: &ImageGrid) -> LoudnessImage {
     // The STFT layout the reference image uses; only its sizes are read.
@@ -440,6 +463,38 @@ mod tests {
         }
         // The fast path was taken (cells differ in the last bits).
         assert!(differ > 0);
+    }
+
+    #[test]
+    fn stopping_each_mode_where_it_no_longer_moves_a_cell_keeps_the_image() {
+        // The test modes, and a quiet long-ringing one that outlasts the recording.
+        let fs = 44100.0;
+        let n = 44100;
+        let mut m = modes();
+        m.push(DampedMode {
+            freq_hz: 3000.0,
+            damping_per_s: 0.5,
+            amplitude: 0.01,
+            phase_rad: 0.0,
+        });
+        let full = synthesize(&m, fs, n);
+        let grid = ImageGrid::new(fs, n).unwrap();
+        let grid = grid
+            .clone()
+            .with_floor_below(&image_of_signal(&full, &grid), 50.0);
+        let cut = audible_signal(&m, &grid, n);
+        // The heavily damped modes stop early (the sum covers far less than every mode over
+        // the whole recording), the long-ringing one runs to the end.
+        let spans: Vec<usize> = m.iter().map(|x| audible_samples(x, &grid, n)).collect();
+        assert!(spans[3] < n / 10 && spans[4] == n, "{spans:?}");
+        assert!(full.iter().zip(&cut).any(|(a, b)| a != b));
+        let (a, b) = (image_of_signal(&full, &grid), image_of_signal(&cut, &grid));
+        let norm: f64 = a.data.iter().map(|v| v * v).sum();
+        assert!(
+            a.distance(&b) < 1e-8 * norm,
+            "{} of {norm}",
+            a.distance(&b)
+        );
     }
 
     #[test]
