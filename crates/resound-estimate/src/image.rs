@@ -490,11 +490,7 @@ mod tests {
         assert!(full.iter().zip(&cut).any(|(a, b)| a != b));
         let (a, b) = (image_of_signal(&full, &grid), image_of_signal(&cut, &grid));
         let norm: f64 = a.data.iter().map(|v| v * v).sum();
-        assert!(
-            a.distance(&b) < 1e-8 * norm,
-            "{} of {norm}",
-            a.distance(&b)
-        );
+        assert!(a.distance(&b) < 1e-8 * norm, "{} of {norm}", a.distance(&b));
     }
 
     #[test]
