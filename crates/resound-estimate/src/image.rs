@@ -85,6 +85,19 @@ impl ImageGrid {
         Some(grid)
     }
 
+    /// The STFT layout of the grid's frames (`fft_len = 2W`, no cells: only its sizes are read).
+    fn layout(&self) -> Spectrogram {
+        Spectrogram {
+            window_len: self.window_len,
+            hop: self.hop,
+            fft_len: 2 * self.window_len,
+            frames: 0,
+            bins: self.window_len + 1,
+            sample_rate_hz: self.sample_rate_hz,
+            data: Vec::new(),
+        }
+    }
+
     /// The band of bin `k` of a spectrum with `fft_len = 2W` (as [`Self::band_of`]).
     fn band_of_bin(&self, k: usize) -> Option<usize> {
         self.bin_band.get(k).copied().flatten()
@@ -265,15 +278,7 @@ pub fn audible_samples(m: &DampedMode, grid: &ImageGrid, samples: usize) -> usiz
 /// The image of a set of modes, computed analytically (see the module docs).
 pub fn image_of_modes(modes: &[DampedMode], grid: &ImageGrid) -> LoudnessImage {
     // The STFT layout the reference image uses; only its sizes are read.
-    let layout = Spectrogram {
-        window_len: grid.window_len,
-        hop: grid.hop,
-        fft_len: 2 * grid.window_len,
-        frames: 0,
-        bins: grid.window_len + 1,
-        sample_rate_hz: grid.sample_rate_hz,
-        data: Vec::new(),
-    };
+    let layout = grid.layout();
     // Complex cells of all modes together (coherent: overlapping modes interfere as they do in
     // the recording's STFT), each mode over the bins and frames where it matters. Bin-major, so
     // a mode's run of frames is contiguous; `used[k]` is the number of frames bin k has seen.
@@ -440,15 +445,7 @@ mod tests {
         })
         .collect();
         let grid = ImageGrid::new(fs, 44100).unwrap();
-        let layout = Spectrogram {
-            window_len: grid.window_len,
-            hop: grid.hop,
-            fft_len: 2 * grid.window_len,
-            frames: 0,
-            bins: grid.window_len + 1,
-            sample_rate_hz: fs,
-            data: Vec::new(),
-        };
+        let layout = grid.layout();
         let mut cells = vec![Complex64::new(0.0, 0.0); grid.frames * layout.bins];
         let exact = image_of_modes_in(&m, &grid, &layout, &mut cells, f64::INFINITY);
         let fast = image_of_modes_in(&m, &grid, &layout, &mut cells, MIRROR_WIDTHS);
